@@ -1,0 +1,22 @@
+//! Generates the Rust bindings of the variable table and modelDescription.xml into OUT_DIR,
+//! both from modelDescription/variables.toml (see modelDescription/src/lib.rs).
+use std::path::PathBuf;
+
+fn main() {
+    let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    let version = std::env::var("CARGO_PKG_VERSION").unwrap();
+    let table = model_description::load();
+    std::fs::write(
+        out.join("variables.rs"),
+        model_description::rust_bindings(&table, &version),
+    )
+    .unwrap();
+    std::fs::write(
+        out.join("modelDescription.xml"),
+        model_description::model_description_xml(&table, &version),
+    )
+    .unwrap();
+    println!("cargo:rerun-if-changed=modelDescription/variables.toml");
+    println!("cargo:rerun-if-changed=modelDescription/src/lib.rs");
+    println!("cargo:rerun-if-changed=build.rs");
+}

@@ -1,0 +1,480 @@
+//! The variable table of SpurGearMesh (`variables.toml`) and what is generated from it:
+//! `modelDescription.xml` and the Rust bindings (`Var`, value references, `Params`, `Inputs`,
+//! `Outputs`, `Calculated`). The crate's build.rs and the packaging step both call this, so the
+//! XML inside the FMU and the value references compiled into the binary cannot disagree.
+
+use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, BytesText, Event};
+use quick_xml::Writer;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+/// The table's source text, compiled in so every user sees the same table.
+pub const TABLE_TOML: &str = include_str!("../variables.toml");
+
+#[derive(Debug, Deserialize)]
+pub struct Table {
+    pub model: ModelInfo,
+    pub units: BTreeMap<String, Unit>,
+    #[serde(rename = "var")]
+    pub vars: Vec<Var>,
+}
+
+#[derive(Debug, Deserialize)]
+pub struct ModelInfo {
+    pub name: String,
+    pub description: String,
+    pub author: String,
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub tolerance: f64,
+    pub step_size: f64,
+    pub log_categories: Vec<[String; 2]>,
+}
+
+#[derive(Debug, Deserialize)]
+pub struct Unit {
+    #[serde(default)]
+    pub kg: i32,
+    #[serde(default)]
+    pub m: i32,
+    #[serde(default)]
+    pub s: i32,
+    #[serde(default)]
+    pub rad: i32,
+    #[serde(default)]
+    pub display: Vec<(String, f64)>,
+}
+
+#[derive(Debug, Deserialize)]
+pub struct Var {
+    pub name: String,
+    pub vr: u32,
+    #[serde(rename = "type")]
+    pub ty: String,
+    pub causality: String,
+    pub variability: String,
+    pub start: Option<toml::Value>,
+    pub unit: Option<String>,
+    pub display_unit: Option<String>,
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    pub description: String,
+}
+
+impl Var {
+    /// The start value as FMI text ("1e-6", "true", "20").
+    fn start_text(&self) -> Option<String> {
+        self.start.as_ref().map(|v| match v {
+            toml::Value::Float(f) => format_real(*f),
+            toml::Value::Integer(i) if self.ty == "Real" => format_real(*i as f64),
+            toml::Value::Integer(i) => i.to_string(),
+            toml::Value::Boolean(b) => b.to_string(),
+            other => panic!("variable {}: unsupported start value {other}", self.name),
+        })
+    }
+
+    /// The start value as Rust source for the field's type.
+    fn start_rust(&self) -> String {
+        let text = self
+            .start_text()
+            .unwrap_or_else(|| panic!("variable {} needs a start value", self.name));
+        match self.ty.as_str() {
+            "Real" if !text.contains(['.', 'e', 'E']) => format!("{text}.0"),
+            _ => text,
+        }
+    }
+
+    fn rust_type(&self) -> &'static str {
+        match self.ty.as_str() {
+            "Real" => "f64",
+            "Integer" => "i32",
+            "Boolean" => "bool",
+            t => panic!("variable {}: unknown type {t}", self.name),
+        }
+    }
+}
+
+/// Shortest text that reads back to the same f64.
+fn format_real(f: f64) -> String {
+    let s = format!("{f:?}");
+    s.strip_suffix(".0").map(str::to_owned).unwrap_or(s)
+}
+
+pub fn load() -> Table {
+    let table: Table = toml::from_str(TABLE_TOML).expect("variables.toml does not parse");
+    check(&table);
+    table
+}
+
+/// Structural checks that a typo in the table would otherwise only show at run time.
+fn check(t: &Table) {
+    let mut seen_vr = std::collections::BTreeSet::new();
+    let mut seen_name = std::collections::BTreeSet::new();
+    for v in &t.vars {
+        assert!(seen_vr.insert(v.vr), "value reference {} used twice", v.vr);
+        assert!(
+            seen_name.insert(&v.name),
+            "variable {} declared twice",
+            v.name
+        );
+        v.rust_type();
+        let needs_start = matches!(v.causality.as_str(), "parameter" | "input");
+        assert_eq!(
+            needs_start,
+            v.start.is_some(),
+            "variable {}: start value",
+            v.name
+        );
+        if let Some(u) = &v.unit {
+            assert!(
+                t.units.contains_key(u),
+                "variable {}: unit {u} not in [units]",
+                v.name
+            );
+        }
+    }
+}
+
+/// A stable GUID: a 128-bit FNV-1a hash of the table and the crate version, so that a changed
+/// table gives a new GUID and the same table always gives the same one.
+pub fn guid(version: &str) -> String {
+    let mut h: u128 = 0x6c62272e07bb014262b821756295c58d;
+    for b in TABLE_TOML.bytes().chain(version.bytes()) {
+        h ^= b as u128;
+        h = h.wrapping_mul(0x0000000001000000000000000000013B);
+    }
+    let x = format!("{h:032x}");
+    format!(
+        "{{{}-{}-{}-{}-{}}}",
+        &x[0..8],
+        &x[8..12],
+        &x[12..16],
+        &x[16..20],
+        &x[20..32]
+    )
+}
+
+fn elem<'a>(name: &'a str, attrs: &[(&str, String)]) -> BytesStart<'a> {
+    let mut e = BytesStart::new(name);
+    for (k, v) in attrs {
+        e.push_attribute((*k, v.as_str()));
+    }
+    e
+}
+
+/// modelDescription.xml for FMI 2.0 Co-Simulation.
+pub fn model_description_xml(t: &Table, version: &str) -> String {
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
+    let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
+    put(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
+    put(Event::Start(elem(
+        "fmiModelDescription",
+        &[
+            ("fmiVersion", "2.0".into()),
+            ("modelName", t.model.name.clone()),
+            ("guid", guid(version)),
+            ("description", t.model.description.clone()),
+            ("author", t.model.author.clone()),
+            ("version", version.into()),
+            (
+                "generationTool",
+                "SpurGearMesh modelDescription generator".into(),
+            ),
+            ("variableNamingConvention", "flat".into()),
+            ("numberOfEventIndicators", "0".into()),
+        ],
+    )));
+    put(Event::Empty(elem(
+        "CoSimulation",
+        &[
+            ("modelIdentifier", t.model.name.clone()),
+            ("needsExecutionTool", "false".into()),
+            ("canHandleVariableCommunicationStepSize", "true".into()),
+            ("canInterpolateInputs", "false".into()),
+            ("maxOutputDerivativeOrder", "0".into()),
+            ("canRunAsynchronuously", "false".into()),
+            ("canBeInstantiatedOnlyOncePerProcess", "false".into()),
+            ("canNotUseMemoryManagementFunctions", "true".into()),
+            ("canGetAndSetFMUstate", "true".into()),
+            ("canSerializeFMUstate", "true".into()),
+            ("providesDirectionalDerivative", "false".into()),
+        ],
+    )));
+
+    put(Event::Start(BytesStart::new("UnitDefinitions")));
+    for (name, u) in &t.units {
+        put(Event::Start(elem("Unit", &[("name", name.clone())])));
+        let mut base = Vec::new();
+        for (k, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("rad", u.rad)] {
+            if e != 0 {
+                base.push((k, e.to_string()));
+            }
+        }
+        put(Event::Empty(elem("BaseUnit", &base)));
+        for (d, factor) in &u.display {
+            put(Event::Empty(elem(
+                "DisplayUnit",
+                &[("name", d.clone()), ("factor", format_real(*factor))],
+            )));
+        }
+        put(Event::End(BytesEnd::new("Unit")));
+    }
+    put(Event::End(BytesEnd::new("UnitDefinitions")));
+
+    put(Event::Start(BytesStart::new("LogCategories")));
+    for [name, desc] in &t.model.log_categories {
+        put(Event::Empty(elem(
+            "Category",
+            &[("name", name.clone()), ("description", desc.clone())],
+        )));
+    }
+    put(Event::End(BytesEnd::new("LogCategories")));
+
+    put(Event::Empty(elem(
+        "DefaultExperiment",
+        &[
+            ("startTime", format_real(t.model.start_time)),
+            ("stopTime", format_real(t.model.stop_time)),
+            ("tolerance", format_real(t.model.tolerance)),
+            ("stepSize", format_real(t.model.step_size)),
+        ],
+    )));
+
+    put(Event::Start(BytesStart::new("ModelVariables")));
+    for (i, v) in t.vars.iter().enumerate() {
+        put(Event::Comment(BytesText::new(&format!(
+            " index {} ",
+            i + 1
+        ))));
+        let mut attrs = vec![
+            ("name", v.name.clone()),
+            ("valueReference", v.vr.to_string()),
+            ("description", v.description.clone()),
+            ("causality", v.causality.clone()),
+            ("variability", v.variability.clone()),
+        ];
+        match v.causality.as_str() {
+            "parameter" => attrs.push(("initial", "exact".into())),
+            "calculatedParameter" | "output" => attrs.push(("initial", "calculated".into())),
+            _ => {}
+        }
+        put(Event::Start(elem("ScalarVariable", &attrs)));
+        let mut tattrs = Vec::new();
+        if let Some(s) = v.start_text() {
+            tattrs.push(("start", s));
+        }
+        if let Some(u) = &v.unit {
+            tattrs.push(("unit", u.clone()));
+        }
+        if let Some(d) = &v.display_unit {
+            tattrs.push(("displayUnit", d.clone()));
+        }
+        for (k, bound) in [("min", v.min), ("max", v.max)] {
+            if let Some(b) = bound {
+                let text = if v.ty == "Integer" {
+                    (b as i64).to_string()
+                } else {
+                    format_real(b)
+                };
+                tattrs.push((k, text));
+            }
+        }
+        put(Event::Empty(elem(&v.ty, &tattrs)));
+        put(Event::End(BytesEnd::new("ScalarVariable")));
+    }
+    put(Event::End(BytesEnd::new("ModelVariables")));
+
+    let index_of = |pred: &dyn Fn(&Var) -> bool| -> Vec<usize> {
+        t.vars
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| pred(v))
+            .map(|(i, _)| i + 1)
+            .collect()
+    };
+    put(Event::Start(BytesStart::new("ModelStructure")));
+    put(Event::Start(BytesStart::new("Outputs")));
+    for i in index_of(&|v| v.causality == "output") {
+        put(Event::Empty(elem("Unknown", &[("index", i.to_string())])));
+    }
+    put(Event::End(BytesEnd::new("Outputs")));
+    put(Event::Start(BytesStart::new("InitialUnknowns")));
+    for i in index_of(&|v| matches!(v.causality.as_str(), "output" | "calculatedParameter")) {
+        put(Event::Empty(elem("Unknown", &[("index", i.to_string())])));
+    }
+    put(Event::End(BytesEnd::new("InitialUnknowns")));
+    put(Event::End(BytesEnd::new("ModelStructure")));
+    put(Event::End(BytesEnd::new("fmiModelDescription")));
+    let mut xml = String::from_utf8(w.into_inner()).expect("quick-xml writes UTF-8");
+    xml.push('\n');
+    xml
+}
+
+/// Rust bindings: `Var` (one variant per variable, named as in the table), its metadata,
+/// and one struct per causality group with typed getters and setters by `Var`.
+pub fn rust_bindings(t: &Table, version: &str) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    writeln!(
+        w,
+        "// Generated from modelDescription/variables.toml by build.rs. Do not edit."
+    )
+    .unwrap();
+    writeln!(w, "pub const GUID: &str = {:?};", guid(version)).unwrap();
+    writeln!(w, "pub const MODEL_IDENTIFIER: &str = {:?};", t.model.name).unwrap();
+    let cats: Vec<&str> = t
+        .model
+        .log_categories
+        .iter()
+        .map(|c| c[0].as_str())
+        .collect();
+    writeln!(w, "pub const LOG_CATEGORIES: &[&str] = &{cats:?};").unwrap();
+    writeln!(
+        w,
+        "pub const DEFAULT_STOP_TIME: f64 = {};",
+        format_real(t.model.stop_time)
+    )
+    .unwrap();
+
+    writeln!(w, "#[allow(non_camel_case_types)]").unwrap();
+    writeln!(
+        w,
+        "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]\npub enum Var {{"
+    )
+    .unwrap();
+    for v in &t.vars {
+        writeln!(w, "    /// {}\n    {},", v.description, v.name).unwrap();
+    }
+    writeln!(w, "}}").unwrap();
+
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum VarType {{ Real, Integer, Boolean }}").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Causality {{ Parameter, CalculatedParameter, Input, Output }}").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Variability {{ Fixed, Tunable, Continuous, Discrete }}").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug)]\npub struct VarInfo {{ pub var: Var, pub name: &'static str, pub vr: u32, pub ty: VarType, pub causality: Causality, pub variability: Variability, pub unit: Option<&'static str> }}").unwrap();
+
+    let camel = |x: &str| -> String {
+        let mut c = x.chars();
+        match c.next() {
+            Some(f) => f.to_ascii_uppercase().to_string() + c.as_str(),
+            None => String::new(),
+        }
+    };
+    writeln!(w, "pub const VARIABLES: &[VarInfo] = &[").unwrap();
+    for v in &t.vars {
+        let causality = match v.causality.as_str() {
+            "calculatedParameter" => "CalculatedParameter".to_string(),
+            c => camel(c),
+        };
+        writeln!(
+            w,
+            "    VarInfo {{ var: Var::{n}, name: {n:?}, vr: {vr}, ty: VarType::{ty}, causality: Causality::{c}, variability: Variability::{va}, unit: {u:?} }},",
+            n = v.name,
+            vr = v.vr,
+            ty = v.ty,
+            c = causality,
+            va = camel(&v.variability),
+            u = v.unit.as_deref(),
+        )
+        .unwrap();
+    }
+    writeln!(w, "];").unwrap();
+
+    writeln!(w, "impl Var {{").unwrap();
+    writeln!(
+        w,
+        "    pub fn from_vr(vr: u32) -> Option<Var> {{\n        match vr {{"
+    )
+    .unwrap();
+    for v in &t.vars {
+        writeln!(w, "            {} => Some(Var::{}),", v.vr, v.name).unwrap();
+    }
+    writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
+    writeln!(
+        w,
+        "    pub fn info(self) -> &'static VarInfo {{\n        match self {{"
+    )
+    .unwrap();
+    for (i, v) in t.vars.iter().enumerate() {
+        writeln!(w, "            Var::{} => &VARIABLES[{i}],", v.name).unwrap();
+    }
+    writeln!(w, "        }}\n    }}\n}}").unwrap();
+
+    for (st, causality, doc) in [
+        (
+            "Params",
+            "parameter",
+            "Parameters, with the table's start values as defaults.",
+        ),
+        (
+            "Inputs",
+            "input",
+            "Inputs, with the table's start values as defaults.",
+        ),
+        ("Outputs", "output", "Outputs, computed by the model."),
+        (
+            "Calculated",
+            "calculatedParameter",
+            "Calculated parameters, computed from the geometry.",
+        ),
+    ] {
+        let fields: Vec<&Var> = t.vars.iter().filter(|v| v.causality == causality).collect();
+        writeln!(w, "/// {doc}\n#[allow(non_snake_case)]\n#[derive(Clone, Debug, PartialEq)]\npub struct {st} {{").unwrap();
+        for v in &fields {
+            let unit = v
+                .unit
+                .as_deref()
+                .map(|u| format!(" [{u}]"))
+                .unwrap_or_default();
+            writeln!(
+                w,
+                "    /// {}{unit}\n    pub {}: {},",
+                v.description,
+                v.name,
+                v.rust_type()
+            )
+            .unwrap();
+        }
+        writeln!(w, "}}").unwrap();
+        let has_start = matches!(causality, "parameter" | "input");
+        writeln!(
+            w,
+            "impl Default for {st} {{\n    fn default() -> Self {{\n        Self {{"
+        )
+        .unwrap();
+        for v in &fields {
+            let value = if has_start {
+                v.start_rust()
+            } else {
+                match v.ty.as_str() {
+                    "Real" => "0.0".into(),
+                    "Integer" => "0".into(),
+                    _ => "false".into(),
+                }
+            };
+            writeln!(w, "            {}: {value},", v.name).unwrap();
+        }
+        writeln!(w, "        }}\n    }}\n}}").unwrap();
+        writeln!(w, "impl {st} {{").unwrap();
+        for (ty, rty) in [("Real", "f64"), ("Integer", "i32"), ("Boolean", "bool")] {
+            let lower = ty.to_ascii_lowercase();
+            writeln!(w, "    #[allow(unreachable_patterns)]\n    pub fn get_{lower}(&self, v: Var) -> Option<{rty}> {{\n        match v {{").unwrap();
+            for f in fields.iter().filter(|f| f.ty == ty) {
+                writeln!(w, "            Var::{n} => Some(self.{n}),", n = f.name).unwrap();
+            }
+            writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
+            writeln!(w, "    #[allow(unreachable_patterns, unused_variables)]\n    pub fn set_{lower}(&mut self, v: Var, x: {rty}) -> bool {{\n        match v {{").unwrap();
+            for f in fields.iter().filter(|f| f.ty == ty) {
+                writeln!(
+                    w,
+                    "            Var::{n} => {{ self.{n} = x; true }}",
+                    n = f.name
+                )
+                .unwrap();
+            }
+            writeln!(w, "            _ => false,\n        }}\n    }}").unwrap();
+        }
+        writeln!(w, "}}").unwrap();
+    }
+    s
+}

@@ -1,0 +1,7 @@
+//! The variable table, generated from `modelDescription/variables.toml` by build.rs: `Var` with
+//! its value references, and the structs `Params`, `Inputs`, `Outputs`, `Calculated`.
+include!(concat!(env!("OUT_DIR"), "/variables.rs"));
+
+/// The modelDescription.xml generated from the same table (the packaging step writes the same text).
+pub const MODEL_DESCRIPTION_XML: &str =
+    include_str!(concat!(env!("OUT_DIR"), "/modelDescription.xml"));
