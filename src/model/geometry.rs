@@ -1,0 +1,512 @@
+//! Gear geometry (spec §2): from the parameters to the numbers the contact model needs.
+//! Two front ends, the paper's and standard gear data, give the same `Geometry`.
+
+use super::ModelError;
+use crate::variables::Params;
+use std::f64::consts::PI;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Geometry {
+    pub z_a: f64,
+    pub z_b: f64,
+    /// Operating pressure angle alpha_w.
+    pub alpha_w: f64,
+    pub r_ab: f64,
+    pub r_bb: f64,
+    /// Centre distance.
+    pub d: f64,
+    /// Length of the line of action |K_A K_B|.
+    pub l: f64,
+    /// Contact segment [s_a, s_b] on the line of action, from K_A.
+    pub s_a: f64,
+    pub s_b: f64,
+    /// Base pitch p_b = rAb dA = rBb dB.
+    pub p_b: f64,
+    /// Real pitch angles 2 pi/z.
+    pub d_a: f64,
+    pub d_b: f64,
+    pub eps: f64,
+    /// Contact objects per flank.
+    pub m_c: usize,
+    /// Base tooth thickness angles (with backlash).
+    pub t_a: f64,
+    pub t_b: f64,
+    pub r_tip_a: f64,
+    pub r_tip_b: f64,
+    /// Effective modulus E*.
+    pub e_star: f64,
+}
+
+/// Involute function tan(a) - a.
+pub fn inv(a: f64) -> f64 {
+    a.tan() - a
+}
+
+/// Inverse of the involute function on (0, pi/2) by Newton's method (inv is convex and increasing).
+fn inv_inverse(target: f64) -> Option<f64> {
+    if !(target > 0.0) || !target.is_finite() {
+        return None;
+    }
+    // Start from the series inv(a) ~ a^3/3, which is below the root, so Newton converges monotonically.
+    let mut a = (3.0 * target).cbrt().min(1.5);
+    for _ in 0..100 {
+        let f = inv(a) - target;
+        let df = a.tan().powi(2);
+        let next = a - f / df;
+        if (next - a).abs() <= 1e-15 * a {
+            return Some(next);
+        }
+        a = next.clamp(1e-12, PI / 2.0 - 1e-12);
+    }
+    None
+}
+
+fn err(var: &str, value: impl std::fmt::Display, why: &str) -> ModelError {
+    ModelError::new(format!("parameter {var} = {value}: {why}"))
+}
+
+/// Checks every parameter on its own; `Geometry::new` then checks how they fit together.
+pub fn validate(p: &Params) -> Result<(), ModelError> {
+    let positive = [
+        ("width", p.width),
+        ("E_A", p.E_A),
+        ("E_B", p.E_B),
+        ("J_A", p.J_A),
+        ("J_B", p.J_B),
+        ("v_reg", p.v_reg),
+    ];
+    for (name, v) in positive {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(err(name, v, "must be positive and finite"));
+        }
+    }
+    let non_negative = [
+        ("backlash", p.backlash),
+        ("chi", p.chi),
+        ("mu", p.mu),
+        ("c_load", p.c_load),
+    ];
+    for (name, v) in non_negative {
+        if !(v >= 0.0 && v.is_finite()) {
+            return Err(err(name, v, "must be zero or positive and finite"));
+        }
+    }
+    for (name, v) in [("nu_A", p.nu_A), ("nu_B", p.nu_B)] {
+        if !(v > -1.0 && v < 0.5) {
+            return Err(err(name, v, "a Poisson ratio must lie in (-1, 0.5)"));
+        }
+    }
+    for (name, v) in [
+        ("w_A_start", p.w_A_start),
+        ("w_B_start", p.w_B_start),
+        ("dte_start", p.dte_start),
+    ] {
+        if !v.is_finite() {
+            return Err(err(name, v, "must be finite"));
+        }
+    }
+    if !(p.rel_tol >= 1e-14 && p.rel_tol <= 0.1) {
+        return Err(err("rel_tol", p.rel_tol, "must lie in [1e-14, 0.1]"));
+    }
+    if !(1..=2).contains(&p.solver) {
+        return Err(err(
+            "solver",
+            p.solver,
+            "must be 1 (explicit Dormand-Prince) or 2 (implicit TR-BDF2)",
+        ));
+    }
+    if !(0..=2).contains(&p.contacts_per_flank) {
+        return Err(err(
+            "contacts_per_flank",
+            p.contacts_per_flank,
+            "must be 0 (automatic), 1 or 2",
+        ));
+    }
+    for (name, z) in [("zA", p.zA), ("zB", p.zB)] {
+        if z < 3 {
+            return Err(err(name, z, "a wheel needs at least 3 teeth"));
+        }
+    }
+    Ok(())
+}
+
+impl Geometry {
+    pub fn new(p: &Params) -> Result<Geometry, ModelError> {
+        validate(p)?;
+        let e_star = 1.0 / ((1.0 - p.nu_A * p.nu_A) / p.E_A + (1.0 - p.nu_B * p.nu_B) / p.E_B);
+        let (z_a, z_b) = (p.zA as f64, p.zB as f64);
+        let (d_a, d_b) = (2.0 * PI / z_a, 2.0 * PI / z_b);
+        let mut g = match p.geometry {
+            1 => Self::paper(p, e_star)?,
+            2 => Self::standard(p, e_star)?,
+            other => {
+                return Err(err(
+                    "geometry",
+                    other,
+                    "must be 1 (paper) or 2 (standard gear data)",
+                ))
+            }
+        };
+        g.z_a = z_a;
+        g.z_b = z_b;
+        g.d_a = d_a;
+        g.d_b = d_b;
+        g.eps = (g.s_b - g.s_a) / g.p_b;
+        if g.eps < 1.0 - 1e-9 || g.eps > 2.0 + 1e-9 {
+            return Err(ModelError::new(format!(
+                "contact ratio eps = (s_b - s_a)/p_b = ({} - {})/{} = {} must lie in [1, 2]",
+                g.s_b, g.s_a, g.p_b, g.eps
+            )));
+        }
+        let needed = (g.eps - 1e-9).ceil() as usize;
+        g.m_c = match p.contacts_per_flank {
+            0 => needed,
+            m if (m as usize) < needed => {
+                return Err(err(
+                    "contacts_per_flank",
+                    m,
+                    &format!(
+                        "the contact ratio {} needs {needed} contact objects per flank",
+                        g.eps
+                    ),
+                ))
+            }
+            m => m as usize,
+        };
+        if g.t_a <= 0.0 || g.t_b <= 0.0 {
+            return Err(err(
+                "backlash",
+                p.backlash,
+                &format!(
+                    "leaves no tooth: base thickness angles tA = {}, tB = {}",
+                    g.t_a, g.t_b
+                ),
+            ));
+        }
+        Ok(g)
+    }
+
+    fn paper(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
+        if p.zA_nominal < 3 || p.zB_nominal < 3 {
+            return Err(err(
+                "zA_nominal",
+                p.zA_nominal,
+                "nominal tooth counts must be at least 3",
+            ));
+        }
+        if p.zA as i64 * p.zB_nominal as i64 != p.zB as i64 * p.zA_nominal as i64 {
+            return Err(ModelError::new(format!(
+                "tooth ratio zB/zA = {}/{} differs from the nominal ratio zB_nominal/zA_nominal = {}/{}",
+                p.zB, p.zA, p.zB_nominal, p.zA_nominal
+            )));
+        }
+        if !(p.rA > 0.0 && p.rA.is_finite()) {
+            return Err(err("rA", p.rA, "must be positive and finite"));
+        }
+        let n = p.zB_nominal as f64 / p.zA_nominal as f64;
+        let (r_a, r_b) = (p.rA, n * p.rA);
+        let d = r_a + r_b;
+        let alpha_inf = (2.0 * PI / (p.zA_nominal as f64 * (1.0 + n))).atan();
+        let alpha_w = p.alpha_factor * alpha_inf;
+        if !(p.alpha_factor > 1.0) || alpha_w >= PI / 2.0 {
+            return Err(err(
+                "alpha_factor",
+                p.alpha_factor,
+                &format!("alpha_w = alpha_factor*{alpha_inf} must lie in (alpha_inf, pi/2)"),
+            ));
+        }
+        let (r_ab, r_bb) = (r_a * alpha_w.cos(), r_b * alpha_w.cos());
+        let l = d * alpha_w.sin();
+        let ab = r_ab * 2.0 * PI / p.zA_nominal as f64;
+        let s_a = (l - ab) / 2.0;
+        let s_b = s_a + ab;
+        let p_b = r_ab * 2.0 * PI / p.zA as f64;
+        // Equal thickness on the operating pitch circles (radii r_a, r_b), backlash removed evenly.
+        let s_w = (p_b - p.backlash) / (2.0 * alpha_w.cos());
+        Ok(Geometry {
+            alpha_w,
+            r_ab,
+            r_bb,
+            d,
+            l,
+            s_a,
+            s_b,
+            p_b,
+            t_a: s_w / r_a + 2.0 * inv(alpha_w),
+            t_b: s_w / r_b + 2.0 * inv(alpha_w),
+            r_tip_a: (r_ab * r_ab + s_b * s_b).sqrt(),
+            r_tip_b: (r_bb * r_bb + (l - s_a) * (l - s_a)).sqrt(),
+            e_star,
+            ..Geometry::empty()
+        })
+    }
+
+    fn standard(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
+        let m = p.module;
+        if !(m > 0.0 && m.is_finite()) {
+            return Err(err("module", m, "must be positive and finite"));
+        }
+        let a0 = p.pressure_angle;
+        if !(a0 > 0.0 && a0 < PI / 2.0) {
+            return Err(err("pressure_angle", a0, "must lie in (0, pi/2) rad"));
+        }
+        if !(p.addendum >= 0.0 && p.addendum.is_finite()) {
+            return Err(err("addendum", p.addendum, "must be zero or positive"));
+        }
+        for (name, x) in [("xA", p.xA), ("xB", p.xB)] {
+            if !x.is_finite() {
+                return Err(err(name, x, "must be finite"));
+            }
+        }
+        let (za, zb) = (p.zA as f64, p.zB as f64);
+        let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xA + p.xB) / (za + zb);
+        let alpha_w = inv_inverse(inv_w).ok_or_else(|| {
+            ModelError::new(format!(
+                "profile shifts xA = {}, xB = {} give inv(alpha_w) = {inv_w}: no operating pressure angle",
+                p.xA, p.xB
+            ))
+        })?;
+        let d = m * (za + zb) / 2.0 * a0.cos() / alpha_w.cos();
+        let (r_ab, r_bb) = (m * za * a0.cos() / 2.0, m * zb * a0.cos() / 2.0);
+        let l = d * alpha_w.sin();
+        let r_tip_a = m * za / 2.0 + m * (p.addendum + p.xA);
+        let r_tip_b = m * zb / 2.0 + m * (p.addendum + p.xB);
+        let s_b = (r_tip_a * r_tip_a - r_ab * r_ab).max(0.0).sqrt();
+        let s_a = l - (r_tip_b * r_tip_b - r_bb * r_bb).max(0.0).sqrt();
+        if s_a < 0.0 || s_b > l {
+            return Err(ModelError::new(format!(
+                "interference: the contact segment [s_a, s_b] = [{s_a}, {s_b}] leaves the line of action [0, {l}] \
+                 (tip radii {r_tip_a}, {r_tip_b}; reduce addendum or change the profile shifts)"
+            )));
+        }
+        // Base thickness angle from the reference thickness m(pi/2 + 2 x tan a0); backlash split evenly.
+        let t = |z: f64, x: f64, rb: f64| {
+            m * (PI / 2.0 + 2.0 * x * a0.tan()) / (m * z / 2.0) + 2.0 * inv(a0)
+                - p.backlash / (2.0 * rb)
+        };
+        Ok(Geometry {
+            alpha_w,
+            r_ab,
+            r_bb,
+            d,
+            l,
+            s_a,
+            s_b,
+            p_b: r_ab * 2.0 * PI / za,
+            t_a: t(za, p.xA, r_ab),
+            t_b: t(zb, p.xB, r_bb),
+            r_tip_a,
+            r_tip_b,
+            e_star,
+            ..Geometry::empty()
+        })
+    }
+
+    fn empty() -> Geometry {
+        Geometry {
+            z_a: 0.0,
+            z_b: 0.0,
+            alpha_w: 0.0,
+            r_ab: 0.0,
+            r_bb: 0.0,
+            d: 0.0,
+            l: 0.0,
+            s_a: 0.0,
+            s_b: 0.0,
+            p_b: 0.0,
+            d_a: 0.0,
+            d_b: 0.0,
+            eps: 0.0,
+            m_c: 0,
+            t_a: 0.0,
+            t_b: 0.0,
+            r_tip_a: 0.0,
+            r_tip_b: 0.0,
+            e_star: 0.0,
+        }
+    }
+
+    /// Lower end of an object's window in s_A; the upper end is s_b (spec §3).
+    pub fn s_window_low(&self) -> f64 {
+        self.s_b - self.m_c as f64 * self.p_b
+    }
+
+    /// Window bounds of the forward tracking angle phiA (spec §3), for reporting.
+    pub fn phi_window(&self) -> (f64, f64) {
+        let phi_min = self.alpha_w - self.s_b / self.r_ab;
+        (phi_min, phi_min + self.m_c as f64 * self.d_a)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// test-vectors.md values are printed with 12-15 significant digits; each quantity here is a
+    /// few floating-point operations from the inputs, so agreement to 1e-12 relative is expected.
+    fn close(a: f64, b: f64) {
+        assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-300), "{a} vs {b}");
+    }
+
+    #[test]
+    fn paper_geometry_matches_test_vectors() {
+        let g = Geometry::new(&Params::default()).unwrap();
+        close(g.alpha_w, 0.350023621796666);
+        close(g.r_ab, 0.187872922544603);
+        close(g.r_bb, 0.281809383816904);
+        close(g.d, 0.5);
+        close(g.l, 0.1714599985155);
+        close(g.s_a, 0.0562189895940214);
+        close(g.s_b, 0.115241008921478);
+        close(g.p_b, 0.053656381206779);
+        close(g.eps, 1.1);
+        assert_eq!(g.m_c, 2);
+        close(g.t_a, 0.172596813864531);
+        close(g.t_b, 0.125085637620684);
+        close(g.e_star, 115384615384.615);
+        let (lo, hi) = g.phi_window();
+        close(lo, -0.263375091336776);
+        close(hi, 0.307823572952278);
+        close(g.r_tip_a, 0.220401282125787);
+        close(g.r_tip_b, 0.304461851377974);
+        close(g.r_bb * g.d_b, g.p_b);
+    }
+
+    #[test]
+    fn zero_backlash_thickness() {
+        let p = Params {
+            backlash: 0.0,
+            ..Params::default()
+        };
+        let g = Geometry::new(&p).unwrap();
+        close(g.t_a, 0.172862951205255);
+        // The vector has 14 significant digits.
+        assert!((g.t_b - 0.12526306251450).abs() < 1e-13);
+    }
+
+    #[test]
+    fn thickness_closure_holds_for_both_front_ends() {
+        for geometry in [1, 2] {
+            let p = Params {
+                geometry,
+                xA: 0.2,
+                xB: -0.1,
+                ..Params::default()
+            };
+            let g = Geometry::new(&p).unwrap();
+            let lhs = g.r_ab * g.t_a + g.r_bb * g.t_b;
+            let rhs = g.p_b + 2.0 * g.d * g.alpha_w.cos() * inv(g.alpha_w) - p.backlash;
+            assert!(
+                (lhs - rhs).abs() < 1e-14,
+                "geometry {geometry}: {lhs} vs {rhs}"
+            );
+        }
+    }
+
+    #[test]
+    fn standard_geometry_of_unshifted_gears() {
+        let p = Params {
+            geometry: 2,
+            module: 0.004,
+            zA: 20,
+            zB: 40,
+            ..Params::default()
+        };
+        let g = Geometry::new(&p).unwrap();
+        close(g.alpha_w, p.pressure_angle);
+        close(g.d, 0.004 * 60.0 / 2.0);
+        // Textbook contact ratio of a 20/40 pair, 20 deg, full-depth teeth: 1.6 to 1.7.
+        assert!(g.eps > 1.6 && g.eps < 1.7, "{}", g.eps);
+        assert_eq!(g.m_c, 2);
+    }
+
+    #[test]
+    fn inconsistent_parameters_are_rejected_with_names() {
+        let cases: Vec<(Params, &str)> = vec![
+            (
+                Params {
+                    zA: 21,
+                    ..Params::default()
+                },
+                "tooth ratio",
+            ),
+            (
+                Params {
+                    width: -1.0,
+                    ..Params::default()
+                },
+                "width",
+            ),
+            (
+                Params {
+                    J_A: 0.0,
+                    ..Params::default()
+                },
+                "J_A",
+            ),
+            (
+                Params {
+                    E_B: f64::NAN,
+                    ..Params::default()
+                },
+                "E_B",
+            ),
+            (
+                Params {
+                    nu_A: 0.5,
+                    ..Params::default()
+                },
+                "nu_A",
+            ),
+            (
+                Params {
+                    backlash: -1e-6,
+                    ..Params::default()
+                },
+                "backlash",
+            ),
+            (
+                Params {
+                    rA: 0.0,
+                    ..Params::default()
+                },
+                "rA",
+            ),
+            (
+                Params {
+                    zA: 44,
+                    zB: 66,
+                    ..Params::default()
+                },
+                "contact ratio",
+            ),
+            (
+                Params {
+                    zA: 18,
+                    zB: 27,
+                    ..Params::default()
+                },
+                "contact ratio",
+            ),
+            (
+                Params {
+                    contacts_per_flank: 1,
+                    ..Params::default()
+                },
+                "contacts_per_flank",
+            ),
+            (
+                Params {
+                    geometry: 2,
+                    addendum: 3.0,
+                    ..Params::default()
+                },
+                "interference",
+            ),
+        ];
+        for (p, word) in cases {
+            let e = Geometry::new(&p).unwrap_err();
+            assert!(e.message.contains(word), "{} should name {word}", e.message);
+        }
+    }
+}

@@ -1,0 +1,27 @@
+//! The gear-mesh model: pure Rust, no FMI. Parameters -> geometry -> contact objects -> forces
+//! -> right-hand side. The integration driver (`crate::driver`) advances it.
+
+pub mod contact;
+pub mod geometry;
+pub mod johnson;
+pub mod mesh;
+
+pub use mesh::{Loads, Mesh, State, NY};
+
+/// An invalid parameter set or initial state, with a message naming the variable and the value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelError {
+    pub message: String,
+}
+
+impl ModelError {
+    pub fn new(message: String) -> Self {
+        ModelError { message }
+    }
+}
+
+impl std::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
