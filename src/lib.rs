@@ -3,5 +3,6 @@
 //! `model` (geometry, contacts, forces, equations of motion) -> `driver` (integration to a
 //! communication point, event location) -> `fmi` (exported C functions, state machine, logging).
 
+pub mod driver;
 pub mod model;
 pub mod variables;

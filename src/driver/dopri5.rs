@@ -1,0 +1,233 @@
+//! Dormand-Prince 5(4) with FSAL, PI step-size control and the 4th-order continuous extension
+//! (coefficients from Hairer, Norsett & Wanner, Solving ODEs I, sec. II.5 and II.6). The nodes c_i
+//! are not needed: between events and input changes the system is autonomous.
+
+use super::{error_norm, Stats, StepError, System};
+use crate::model::{State, NY};
+
+const A21: f64 = 1.0 / 5.0;
+const A31: f64 = 3.0 / 40.0;
+const A32: f64 = 9.0 / 40.0;
+const A41: f64 = 44.0 / 45.0;
+const A42: f64 = -56.0 / 15.0;
+const A43: f64 = 32.0 / 9.0;
+const A51: f64 = 19372.0 / 6561.0;
+const A52: f64 = -25360.0 / 2187.0;
+const A53: f64 = 64448.0 / 6561.0;
+const A54: f64 = -212.0 / 729.0;
+const A61: f64 = 9017.0 / 3168.0;
+const A62: f64 = -355.0 / 33.0;
+const A63: f64 = 46732.0 / 5247.0;
+const A64: f64 = 49.0 / 176.0;
+const A65: f64 = -5103.0 / 18656.0;
+const A71: f64 = 35.0 / 384.0;
+const A73: f64 = 500.0 / 1113.0;
+const A74: f64 = 125.0 / 192.0;
+const A75: f64 = -2187.0 / 6784.0;
+const A76: f64 = 11.0 / 84.0;
+const E1: f64 = 71.0 / 57600.0;
+const E3: f64 = -71.0 / 16695.0;
+const E4: f64 = 71.0 / 1920.0;
+const E5: f64 = -17253.0 / 339200.0;
+const E6: f64 = 22.0 / 525.0;
+const E7: f64 = -1.0 / 40.0;
+const D1: f64 = -12715105075.0 / 11282082432.0;
+const D3: f64 = 87487479700.0 / 32700410799.0;
+const D4: f64 = -10690763975.0 / 1880347072.0;
+const D5: f64 = 701980252875.0 / 199316789632.0;
+const D6: f64 = -1453857185.0 / 822651844.0;
+const D7: f64 = 69997945.0 / 29380423.0;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dopri5 {
+    pub t: f64,
+    pub t_prev: f64,
+    pub h: f64,
+    pub y: State,
+    /// f(t, y): first stage of the next step (FSAL).
+    pub k1: State,
+    /// Continuous-extension coefficients of the last step.
+    pub rcont: [State; 5],
+    pub facold: f64,
+}
+
+fn axpy(y: &State, h: f64, terms: &[(f64, &State)]) -> State {
+    let mut out = *y;
+    for (i, o) in out.iter_mut().enumerate() {
+        let mut s = 0.0;
+        for (a, k) in terms {
+            s += a * k[i];
+        }
+        *o += h * s;
+    }
+    out
+}
+
+impl Dopri5 {
+    pub fn new() -> Self {
+        Dopri5 {
+            t: 0.0,
+            t_prev: 0.0,
+            h: 0.0,
+            y: [0.0; NY],
+            k1: [0.0; NY],
+            rcont: [[0.0; NY]; 5],
+            facold: 1e-4,
+        }
+    }
+
+    /// Starts at (t, y). With no hint the initial step follows Hairer's estimate from f and f'.
+    pub fn restart<S: System>(
+        &mut self,
+        sys: &S,
+        t: f64,
+        y: &State,
+        h_hint: Option<f64>,
+        tol: &super::Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        self.t = t;
+        self.t_prev = t;
+        self.y = *y;
+        sys.rhs(y, &mut self.k1).map_err(StepError::Law)?;
+        stats.rhs_evals += 1;
+        self.rcont = [*y, [0.0; NY], [0.0; NY], [0.0; NY], [0.0; NY]];
+        self.facold = 1e-4;
+        self.h = match h_hint {
+            Some(h) => h,
+            None => super::initial_step(sys, y, &self.k1, 5, tol, stats)?,
+        };
+        Ok(())
+    }
+
+    /// One accepted step of at most h_max.
+    pub fn step<S: System>(
+        &mut self,
+        sys: &S,
+        h_max: f64,
+        tol: &super::Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        let y = self.y;
+        let k1 = self.k1;
+        let mut h = self.h.min(h_max);
+        let mut last_err = None;
+        loop {
+            if !(h > super::min_step(self.t)) {
+                return Err(last_err.unwrap_or(StepError::StepTooSmall { t: self.t, h }));
+            }
+            let mut k = [[0.0; NY]; 6];
+            let stages = (|| {
+                sys.rhs(&axpy(&y, h, &[(A21, &k1)]), &mut k[0])?;
+                sys.rhs(&axpy(&y, h, &[(A31, &k1), (A32, &k[0])]), &mut k[1])?;
+                sys.rhs(
+                    &axpy(&y, h, &[(A41, &k1), (A42, &k[0]), (A43, &k[1])]),
+                    &mut k[2],
+                )?;
+                sys.rhs(
+                    &axpy(
+                        &y,
+                        h,
+                        &[(A51, &k1), (A52, &k[0]), (A53, &k[1]), (A54, &k[2])],
+                    ),
+                    &mut k[3],
+                )?;
+                sys.rhs(
+                    &axpy(
+                        &y,
+                        h,
+                        &[
+                            (A61, &k1),
+                            (A62, &k[0]),
+                            (A63, &k[1]),
+                            (A64, &k[2]),
+                            (A65, &k[3]),
+                        ],
+                    ),
+                    &mut k[4],
+                )
+            })();
+            let y1 = axpy(
+                &y,
+                h,
+                &[
+                    (A71, &k1),
+                    (A73, &k[1]),
+                    (A74, &k[2]),
+                    (A75, &k[3]),
+                    (A76, &k[4]),
+                ],
+            );
+            let result = stages.and_then(|_| sys.rhs(&y1, &mut k[5]));
+            stats.rhs_evals += 6;
+            if let Err(e) = result {
+                // Outside the contact law's range: try a smaller step; report it if none works.
+                last_err = Some(StepError::Law(e));
+                stats.rejected += 1;
+                h *= 0.25;
+                continue;
+            }
+            let (k3, k4, k5, k6, k7) = (&k[1], &k[2], &k[3], &k[4], &k[5]);
+            let mut e = [0.0; NY];
+            for i in 0..NY {
+                e[i] = h
+                    * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+            }
+            let err = error_norm(&e, &y, &y1, tol);
+            if err <= 1.0 {
+                let mut r = [[0.0; NY]; 5];
+                for i in 0..NY {
+                    let ydiff = y1[i] - y[i];
+                    let bspl = h * k1[i] - ydiff;
+                    r[0][i] = y[i];
+                    r[1][i] = ydiff;
+                    r[2][i] = bspl;
+                    r[3][i] = ydiff - h * k7[i] - bspl;
+                    r[4][i] = h
+                        * (D1 * k1[i]
+                            + D3 * k3[i]
+                            + D4 * k4[i]
+                            + D5 * k5[i]
+                            + D6 * k6[i]
+                            + D7 * k7[i]);
+                }
+                // PI controller (beta = 0.04) as in Hairer's DOPRI5.
+                let fac11 = err.powf(0.17);
+                let fac = (fac11 / self.facold.powf(0.04) / 0.9).clamp(0.1, 5.0);
+                self.facold = err.max(1e-4);
+                self.rcont = r;
+                self.t_prev = self.t;
+                self.t += h;
+                self.y = y1;
+                self.k1 = *k7;
+                self.h = h / fac;
+                stats.steps += 1;
+                return Ok(());
+            }
+            stats.rejected += 1;
+            // NaN errors land here too: shrink hard.
+            let shrink = if err.is_finite() {
+                (err.powf(0.17) / 0.9).min(5.0)
+            } else {
+                4.0
+            };
+            h /= shrink;
+            last_err = None;
+        }
+    }
+
+    pub fn interpolate(&self, t: f64) -> State {
+        let h = self.t - self.t_prev;
+        if h == 0.0 {
+            return self.y;
+        }
+        let s = (t - self.t_prev) / h;
+        let s1 = 1.0 - s;
+        let r = &self.rcont;
+        let mut out = [0.0; NY];
+        for i in 0..NY {
+            out[i] = r[0][i] + s * (r[1][i] + s1 * (r[2][i] + s * (r[3][i] + s1 * r[4][i])));
+        }
+        out
+    }
+}

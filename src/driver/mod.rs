@@ -1,0 +1,448 @@
+//! The integration driver: advances a `System` to a communication point with an adaptive,
+//! error-controlled method and locates every event on the method's dense output, so the
+//! right-hand side is smooth inside each internal step (modes change only at located events).
+//!
+//! Internal steps are independent of the communication steps: a step may reach past the
+//! communication point, and the next `advance` continues it as long as the inputs did not change.
+
+pub mod dopri5;
+pub mod simulation;
+pub mod trbdf2;
+
+use crate::model::contact::N_EVENTS;
+use crate::model::mesh::{EventReport, LawOutOfRange, N_CONTROLLED};
+use crate::model::{State, NY};
+
+/// What the driver needs of a model.
+pub trait System {
+    fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange>;
+    /// Signed distance of every event function to its crossing: >= 0 until it crosses.
+    fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]);
+    fn margin(&self, i: usize, y: &State) -> f64;
+    fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange>;
+    /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch).
+    fn max_step(&self, y: &State) -> f64;
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stats {
+    pub steps: u64,
+    pub rejected: u64,
+    pub rhs_evals: u64,
+    pub jac_evals: u64,
+    pub factorizations: u64,
+    pub events: u64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tolerance {
+    pub rtol: f64,
+    pub atol: [f64; N_CONTROLLED],
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum StepError {
+    Law(LawOutOfRange),
+    StepTooSmall { t: f64, h: f64 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum DriverError {
+    /// The contact law left its range at time t.
+    Law {
+        t: f64,
+        err: LawOutOfRange,
+    },
+    StepTooSmall {
+        t: f64,
+        h: f64,
+    },
+    /// The work cap of one communication step was reached (e.g. chattering contacts).
+    TooMuchWork {
+        t: f64,
+        steps: u64,
+        events: u64,
+    },
+}
+
+impl std::fmt::Display for DriverError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            DriverError::Law { t, err } => write!(f, "at t = {t} s: {err}"),
+            DriverError::StepTooSmall { t, h } => {
+                write!(f, "at t = {t} s the integrator's step fell to {h} s without meeting the tolerance")
+            }
+            DriverError::TooMuchWork { t, steps, events } => write!(
+                f,
+                "at t = {t} s the communication step needed more than {steps} internal steps or {events} events \
+                 (the work cap per step); reduce the communication step or check the scene"
+            ),
+        }
+    }
+}
+
+/// Weighted RMS norm over the controlled components.
+pub fn error_norm(e: &State, y0: &State, y1: &State, tol: &Tolerance) -> f64 {
+    let mut sum = 0.0;
+    for i in 0..N_CONTROLLED {
+        let sk = tol.atol[i] + tol.rtol * y0[i].abs().max(y1[i].abs());
+        let r = e[i] / sk;
+        sum += r * r;
+    }
+    (sum / N_CONTROLLED as f64).sqrt()
+}
+
+/// Smallest meaningful step at time t: below it t + h == t in floating point, or nearly.
+pub fn min_step(t: f64) -> f64 {
+    16.0 * f64::EPSILON * t.abs().max(1e-3)
+}
+
+/// Hairer's starting step estimate (Solving ODEs I, II.4) for a method of the given order.
+pub fn initial_step<S: System>(
+    sys: &S,
+    y: &State,
+    f0: &State,
+    order: i32,
+    tol: &Tolerance,
+    stats: &mut Stats,
+) -> Result<f64, StepError> {
+    let zero = [0.0; NY];
+    let d0 = error_norm(y, &zero, &zero, tol);
+    let d1 = error_norm(f0, &zero, &zero, tol);
+    let h0 = if d0 < 1e-5 || d1 < 1e-5 {
+        1e-6
+    } else {
+        0.01 * d0 / d1
+    };
+    let h0 = h0.min(sys.max_step(y));
+    let y1: State = std::array::from_fn(|i| y[i] + h0 * f0[i]);
+    let mut f1 = [0.0; NY];
+    sys.rhs(&y1, &mut f1).map_err(StepError::Law)?;
+    stats.rhs_evals += 1;
+    let df: State = std::array::from_fn(|i| f1[i] - f0[i]);
+    let d2 = error_norm(&df, &zero, &zero, tol) / h0;
+    let h1 = if d1.max(d2) <= 1e-15 {
+        (h0 * 1e-3).max(1e-6)
+    } else {
+        (0.01 / d1.max(d2)).powf(1.0 / (order as f64 + 1.0))
+    };
+    Ok((100.0 * h0).min(h1).min(sys.max_step(y)))
+}
+
+/// The integration methods, chosen by the `solver` parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Method {
+    Dopri5(dopri5::Dopri5),
+    TrBdf2(trbdf2::TrBdf2),
+}
+
+impl Method {
+    pub fn from_solver(solver: i32) -> Method {
+        match solver {
+            2 => Method::TrBdf2(trbdf2::TrBdf2::new()),
+            _ => Method::Dopri5(dopri5::Dopri5::new()),
+        }
+    }
+
+    fn t(&self) -> f64 {
+        match self {
+            Method::Dopri5(m) => m.t,
+            Method::TrBdf2(m) => m.t,
+        }
+    }
+
+    fn t_prev(&self) -> f64 {
+        match self {
+            Method::Dopri5(m) => m.t_prev,
+            Method::TrBdf2(m) => m.t_prev,
+        }
+    }
+
+    fn y(&self) -> &State {
+        match self {
+            Method::Dopri5(m) => &m.y,
+            Method::TrBdf2(m) => &m.y,
+        }
+    }
+
+    fn h(&self) -> f64 {
+        match self {
+            Method::Dopri5(m) => m.h,
+            Method::TrBdf2(m) => m.h,
+        }
+    }
+
+    fn interpolate(&self, t: f64) -> State {
+        if t == self.t() {
+            return *self.y();
+        }
+        match self {
+            Method::Dopri5(m) => m.interpolate(t),
+            Method::TrBdf2(m) => m.interpolate(t),
+        }
+    }
+
+    fn restart<S: System>(
+        &mut self,
+        sys: &S,
+        t: f64,
+        y: &State,
+        h: Option<f64>,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        match self {
+            Method::Dopri5(m) => m.restart(sys, t, y, h, tol, stats),
+            Method::TrBdf2(m) => m.restart(sys, t, y, h, tol, stats),
+        }
+    }
+
+    fn step<S: System>(
+        &mut self,
+        sys: &S,
+        h_max: f64,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        match self {
+            Method::Dopri5(m) => m.step(sys, h_max, tol, stats),
+            Method::TrBdf2(m) => m.step(sys, h_max, tol, stats),
+        }
+    }
+}
+
+/// An event found inside the method's current step, not yet handled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PendingEvent {
+    pub t: f64,
+    pub index: usize,
+}
+
+/// Work cap per `advance`; past it the step ends with `TooMuchWork`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorkCap {
+    pub steps: u64,
+    pub events: u64,
+}
+
+impl Default for WorkCap {
+    fn default() -> Self {
+        WorkCap {
+            steps: 5_000_000,
+            events: 1_000_000,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Driver {
+    pub method: Method,
+    pub tol: Tolerance,
+    /// The FMU's time; the method may have stepped beyond it.
+    pub t: f64,
+    /// The method's step must be redone from `t` (inputs changed, or not started).
+    pub needs_restart: bool,
+    pub pending: Option<PendingEvent>,
+    pub stats: Stats,
+    pub cap: WorkCap,
+    /// Never step past this time (the experiment's stop time, if any).
+    pub t_stop: f64,
+    y_start: State,
+}
+
+impl Driver {
+    pub fn new(method: Method, tol: Tolerance, t0: f64, y0: State) -> Driver {
+        Driver {
+            method,
+            tol,
+            t: t0,
+            needs_restart: true,
+            pending: None,
+            stats: Stats::default(),
+            cap: WorkCap::default(),
+            t_stop: f64::INFINITY,
+            y_start: y0,
+        }
+    }
+
+    /// The state at the FMU's current time.
+    pub fn state(&self) -> State {
+        if self.needs_restart && self.method.t() != self.t {
+            return self.y_start;
+        }
+        self.method.interpolate(self.t)
+    }
+
+    /// The right-hand side changes from the current time on (new inputs or tunables).
+    pub fn invalidate(&mut self) {
+        if !self.needs_restart {
+            self.y_start = self.state();
+            self.needs_restart = true;
+        }
+    }
+
+    /// Advances to t_end, handling every event on the way. `log` receives each event.
+    pub fn advance<S: System>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        log: &mut dyn FnMut(f64, &EventReport),
+    ) -> Result<(), DriverError> {
+        let (steps0, events0) = (self.stats.steps + self.stats.rejected, self.stats.events);
+        if self.needs_restart {
+            let h = if self.method.h() > 0.0 {
+                Some(self.method.h())
+            } else {
+                None
+            };
+            let y = self.y_start;
+            self.restart(sys, self.t, &y, h)?;
+        }
+        loop {
+            if let Some(ev) = self.pending {
+                if ev.t > t_end {
+                    self.t = t_end;
+                    return Ok(());
+                }
+                self.pending = None;
+                let y = self.method.interpolate(ev.t);
+                let report = sys
+                    .handle_event(ev.index, &y)
+                    .map_err(|err| DriverError::Law { t: ev.t, err })?;
+                self.stats.events += 1;
+                log(ev.t, &report);
+                self.t = ev.t;
+                let h = self.method.h();
+                self.restart(sys, ev.t, &y, Some(h))?;
+                continue;
+            }
+            if self.method.t() >= t_end {
+                self.t = t_end;
+                return Ok(());
+            }
+            let work = self.stats.steps + self.stats.rejected - steps0;
+            if work > self.cap.steps || self.stats.events - events0 > self.cap.events {
+                return Err(DriverError::TooMuchWork {
+                    t: self.method.t(),
+                    steps: self.cap.steps,
+                    events: self.cap.events,
+                });
+            }
+            let h_max = sys
+                .max_step(self.method.y())
+                .min(self.t_stop - self.method.t());
+            let h_max = if h_max > 0.0 { h_max } else { f64::INFINITY };
+            self.method
+                .step(sys, h_max, &self.tol, &mut self.stats)
+                .map_err(|e| self.step_error(e))?;
+            self.pending = self.locate(sys);
+        }
+    }
+
+    fn restart<S: System>(
+        &mut self,
+        sys: &S,
+        t: f64,
+        y: &State,
+        h: Option<f64>,
+    ) -> Result<(), DriverError> {
+        self.method
+            .restart(sys, t, y, h, &self.tol, &mut self.stats)
+            .map_err(|e| self.step_error(e))?;
+        self.needs_restart = false;
+        self.pending = None;
+        self.y_start = *y;
+        Ok(())
+    }
+
+    fn step_error(&self, e: StepError) -> DriverError {
+        match e {
+            StepError::Law(err) => DriverError::Law {
+                t: self.method.t(),
+                err,
+            },
+            StepError::StepTooSmall { t, h } => DriverError::StepTooSmall { t, h },
+        }
+    }
+
+    /// The earliest event in the last step, from its end point and midpoint (so a function that
+    /// crosses and comes back within a step is caught when the midpoint lies between).
+    fn locate<S: System>(&self, sys: &S) -> Option<PendingEvent> {
+        let (t0, t1) = (self.method.t_prev(), self.method.t());
+        let tm = 0.5 * (t0 + t1);
+        let mut end = [0.0; N_EVENTS];
+        let mut mid = [0.0; N_EVENTS];
+        sys.event_margins(self.method.y(), &mut end);
+        if end.iter().all(|&m| m >= 0.0) {
+            sys.event_margins(&self.method.interpolate(tm), &mut mid);
+            if mid.iter().all(|&m| m >= 0.0) {
+                return None;
+            }
+        } else {
+            sys.event_margins(&self.method.interpolate(tm), &mut mid);
+        }
+        let mut best: Option<PendingEvent> = None;
+        for i in 0..N_EVENTS {
+            let (b, fb) = if mid[i] < 0.0 {
+                (tm, mid[i])
+            } else if end[i] < 0.0 {
+                (t1, end[i])
+            } else {
+                continue;
+            };
+            let a = if b == tm { t0 } else { tm };
+            // At t0 a margin is >= 0 except when two events coincide and the other one was just
+            // handled: it has then crossed at t0 itself, and the root search returns about t0.
+            let fa = if b == tm {
+                sys.margin(i, &self.method.interpolate(t0)).max(0.0)
+            } else {
+                mid[i]
+            };
+            let t = self.root(sys, i, a, fa, b, fb);
+            if best.map_or(true, |e| t < e.t) {
+                best = Some(PendingEvent { t, index: i });
+            }
+        }
+        best
+    }
+
+    /// Illinois regula falsi on the dense output: returns a time at which the function has
+    /// crossed, within a few ulp of the root.
+    fn root<S: System>(
+        &self,
+        sys: &S,
+        i: usize,
+        mut a: f64,
+        mut fa: f64,
+        mut b: f64,
+        mut fb: f64,
+    ) -> f64 {
+        let mut side = 0;
+        for _ in 0..200 {
+            if b - a <= 4.0 * f64::EPSILON * b.abs().max(1e-300) {
+                break;
+            }
+            let mut c = (a * fb - b * fa) / (fb - fa);
+            if !(c > a && c < b) {
+                c = 0.5 * (a + b);
+            }
+            let fc = sys.margin(i, &self.method.interpolate(c));
+            if fc < 0.0 {
+                b = c;
+                fb = fc;
+                if side == -1 {
+                    fa *= 0.5;
+                }
+                side = -1;
+            } else {
+                a = c;
+                fa = fc;
+                if side == 1 {
+                    fb *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        b
+    }
+}

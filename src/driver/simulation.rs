@@ -1,0 +1,80 @@
+//! A model and its driver together: what the FMI layer steps. Also connects the model to the
+//! driver's `System` trait.
+
+use super::{Driver, DriverError, Method, System, Tolerance};
+use crate::model::contact::N_EVENTS;
+use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::{Loads, Mesh, ModelError, State};
+use crate::variables::{Inputs, Outputs, Params};
+
+impl System for Mesh {
+    fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
+        Mesh::rhs(self, y, dy)
+    }
+    fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
+        Mesh::event_margins(self, y, out)
+    }
+    fn margin(&self, i: usize, y: &State) -> f64 {
+        Mesh::margin(self, crate::model::contact::EventFn::from_index(i), y)
+    }
+    fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange> {
+        Mesh::handle_event(self, i, y)
+    }
+    /// A quarter of a base pitch of contact travel: no step can pass a whole gate or window.
+    fn max_step(&self, y: &State) -> f64 {
+        let speed = self.geo.r_ab * y[crate::model::mesh::W_A].abs();
+        if speed > 0.0 {
+            0.25 * self.geo.p_b / speed
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Simulation {
+    pub mesh: Mesh,
+    pub driver: Driver,
+}
+
+impl Simulation {
+    pub fn new(
+        p: &Params,
+        inputs: &Inputs,
+        t0: f64,
+        rel_tol: f64,
+    ) -> Result<Simulation, ModelError> {
+        let (mesh, y0) = Mesh::new(p, inputs)?;
+        let tol = Tolerance {
+            rtol: rel_tol,
+            atol: Mesh::abs_tol(rel_tol),
+        };
+        let driver = Driver::new(Method::from_solver(p.solver), tol, t0, y0);
+        Ok(Simulation { mesh, driver })
+    }
+
+    pub fn time(&self) -> f64 {
+        self.driver.t
+    }
+
+    /// New inputs or tunable parameters; a change restarts the integration at the current time.
+    pub fn set_loads(&mut self, loads: Loads) {
+        if loads != self.mesh.loads {
+            self.driver.invalidate();
+            let y = self.driver.state();
+            self.mesh.set_loads(loads, &y);
+        }
+    }
+
+    pub fn advance(
+        &mut self,
+        t_end: f64,
+        log: &mut dyn FnMut(f64, &EventReport),
+    ) -> Result<(), DriverError> {
+        self.driver.advance(&mut self.mesh, t_end, log)
+    }
+
+    pub fn outputs(&self) -> Result<Outputs, LawOutOfRange> {
+        self.mesh.outputs(&self.driver.state())
+    }
+}
