@@ -4,5 +4,6 @@
 //! communication point, event location) -> `fmi` (exported C functions, state machine, logging).
 
 pub mod driver;
+pub mod fmi;
 pub mod model;
 pub mod variables;

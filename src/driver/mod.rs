@@ -247,7 +247,7 @@ pub struct Driver {
     pub cap: WorkCap,
     /// Never step past this time (the experiment's stop time, if any).
     pub t_stop: f64,
-    y_start: State,
+    pub(crate) y_start: State,
 }
 
 impl Driver {
@@ -267,10 +267,11 @@ impl Driver {
 
     /// The state at the FMU's current time.
     pub fn state(&self) -> State {
-        if self.needs_restart && self.method.t() != self.t {
-            return self.y_start;
+        if self.needs_restart {
+            self.y_start
+        } else {
+            self.method.interpolate(self.t)
         }
-        self.method.interpolate(self.t)
     }
 
     /// The right-hand side changes from the current time on (new inputs or tunables).

@@ -74,7 +74,7 @@ pub struct Mesh {
     /// Energy brought in (or out) by mode changes at events, for the energy balance.
     pub e_gate: f64,
     pub n_events: u64,
-    e_start: f64,
+    pub(crate) e_start: f64,
 }
 
 /// What happened at an event, for the log.

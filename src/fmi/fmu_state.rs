@@ -1,0 +1,408 @@
+//! Serialized FMU states. Format (all integers little-endian):
+//! `"SGMSTATE"`, format version (u32), GUID length (u32) and bytes, payload length (u64),
+//! payload, FNV-1a 64 checksum of the payload (u64). The payload lists every value that
+//! determines how the instance continues, field by field; the geometry is recomputed from the
+//! parameters, which gives the same bits. A state from another format version or another
+//! build of the model (GUID), or a truncated or corrupted one, is rejected with a reason.
+
+use super::instance::{FmiState, Snapshot};
+use crate::driver::dopri5::Dopri5;
+use crate::driver::simulation::Simulation;
+use crate::driver::trbdf2::TrBdf2;
+use crate::driver::{Method, PendingEvent, Stats, WorkCap};
+use crate::model::contact::N_EVENTS;
+use crate::model::mesh::N_CONTROLLED;
+use crate::model::{Loads, State, NY};
+use crate::variables::{Causality, Inputs, Params, VarType, GUID, VARIABLES};
+
+const MAGIC: &[u8; 8] = b"SGMSTATE";
+pub const FORMAT_VERSION: u32 = 1;
+
+fn fnv64(data: &[u8]) -> u64 {
+    data.iter().fold(0xcbf29ce484222325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x100000001b3)
+    })
+}
+
+#[derive(Default)]
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u(&mut self, x: u64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn f(&mut self, x: f64) {
+        self.u(x.to_bits());
+    }
+    fn b(&mut self, x: bool) {
+        self.u(x as u64);
+    }
+    fn fs(&mut self, xs: &[f64]) {
+        xs.iter().for_each(|&x| self.f(x));
+    }
+    fn opt(&mut self, x: Option<f64>) {
+        self.b(x.is_some());
+        self.f(x.unwrap_or(0.0));
+    }
+}
+
+struct Reader<'a> {
+    data: &'a [u8],
+    pos: usize,
+}
+
+impl Reader<'_> {
+    fn u(&mut self) -> Result<u64, String> {
+        let bytes = self
+            .data
+            .get(self.pos..self.pos + 8)
+            .ok_or("payload ends early")?;
+        self.pos += 8;
+        Ok(u64::from_le_bytes(bytes.try_into().expect("8 bytes")))
+    }
+    fn f(&mut self) -> Result<f64, String> {
+        Ok(f64::from_bits(self.u()?))
+    }
+    fn b(&mut self) -> Result<bool, String> {
+        match self.u()? {
+            0 => Ok(false),
+            1 => Ok(true),
+            x => Err(format!("a flag reads {x}")),
+        }
+    }
+    fn fs<const N: usize>(&mut self) -> Result<[f64; N], String> {
+        let mut a = [0.0; N];
+        for x in a.iter_mut() {
+            *x = self.f()?;
+        }
+        Ok(a)
+    }
+    fn opt(&mut self) -> Result<Option<f64>, String> {
+        let present = self.b()?;
+        let x = self.f()?;
+        Ok(present.then_some(x))
+    }
+}
+
+/// Parameters or inputs, in the table's order.
+fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
+    for info in VARIABLES.iter().filter(|v| v.causality == causality) {
+        let v = info.var;
+        match info.ty {
+            VarType::Real => w.f(p.get_real(v).or(i.get_real(v)).expect("typed")),
+            VarType::Integer => {
+                w.u(p.get_integer(v).or(i.get_integer(v)).expect("typed") as i64 as u64)
+            }
+            VarType::Boolean => w.b(p.get_boolean(v).or(i.get_boolean(v)).expect("typed")),
+        }
+    }
+}
+
+fn read_vars(
+    r: &mut Reader,
+    causality: Causality,
+    p: &mut Params,
+    i: &mut Inputs,
+) -> Result<(), String> {
+    for info in VARIABLES.iter().filter(|v| v.causality == causality) {
+        let v = info.var;
+        match info.ty {
+            VarType::Real => {
+                let x = r.f()?;
+                let _ = p.set_real(v, x) || i.set_real(v, x);
+            }
+            VarType::Integer => {
+                let x = i32::try_from(r.u()? as i64)
+                    .map_err(|_| format!("{} out of range", info.name))?;
+                p.set_integer(v, x);
+            }
+            VarType::Boolean => {
+                let x = r.b()?;
+                p.set_boolean(v, x);
+            }
+        }
+    }
+    Ok(())
+}
+
+fn write_sim(w: &mut Writer, s: &Simulation) {
+    let m = &s.mesh;
+    let l = &m.loads;
+    w.fs(&[l.tau_a, l.tau_b, l.c_load, l.chi, l.mu, l.v_reg]);
+    w.fs(&m.sigma);
+    m.sign.iter().for_each(|&b| w.b(b));
+    w.f(m.e_gate);
+    w.u(m.n_events);
+    w.f(m.e_start);
+    let d = &s.driver;
+    w.f(d.tol.rtol);
+    w.fs(&d.tol.atol);
+    w.f(d.t);
+    w.b(d.needs_restart);
+    w.b(d.pending.is_some());
+    w.f(d.pending.map_or(0.0, |p| p.t));
+    w.u(d.pending.map_or(0, |p| p.index as u64));
+    let st = &d.stats;
+    for x in [
+        st.steps,
+        st.rejected,
+        st.rhs_evals,
+        st.jac_evals,
+        st.factorizations,
+        st.events,
+        d.cap.steps,
+        d.cap.events,
+    ] {
+        w.u(x);
+    }
+    w.f(d.t_stop);
+    w.fs(&d.y_start);
+    match &d.method {
+        Method::Dopri5(m) => {
+            w.u(1);
+            w.fs(&[m.t, m.t_prev, m.h]);
+            w.fs(&m.y);
+            w.fs(&m.k1);
+            m.rcont.iter().for_each(|r| w.fs(r));
+            w.f(m.facold);
+        }
+        Method::TrBdf2(m) => {
+            w.u(2);
+            w.fs(&[m.t, m.t_prev, m.h]);
+            for a in [&m.y, &m.f, &m.y_prev, &m.f_prev] {
+                w.fs(a);
+            }
+            w.fs(m.jac.as_slice());
+            w.b(m.jac_fresh);
+        }
+    }
+}
+
+fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simulation, String> {
+    let mut s = Simulation::new(p, i, start, p.rel_tol)
+        .map_err(|e| format!("parameters in the state: {e}"))?;
+    let l: [f64; 6] = r.fs()?;
+    let m = &mut s.mesh;
+    m.loads = Loads {
+        tau_a: l[0],
+        tau_b: l[1],
+        c_load: l[2],
+        chi: l[3],
+        mu: l[4],
+        v_reg: l[5],
+    };
+    m.sigma = r.fs()?;
+    for b in m.sign.iter_mut() {
+        *b = r.b()?;
+    }
+    m.e_gate = r.f()?;
+    m.n_events = r.u()?;
+    m.e_start = r.f()?;
+    let d = &mut s.driver;
+    d.tol.rtol = r.f()?;
+    d.tol.atol = r.fs::<N_CONTROLLED>()?;
+    d.t = r.f()?;
+    d.needs_restart = r.b()?;
+    let (has_pending, pt, pi) = (r.b()?, r.f()?, r.u()? as usize);
+    if pi >= N_EVENTS {
+        return Err(format!("event index {pi} out of range"));
+    }
+    d.pending = has_pending.then_some(PendingEvent { t: pt, index: pi });
+    let mut counts = [0u64; 8];
+    for c in counts.iter_mut() {
+        *c = r.u()?;
+    }
+    let [steps, rejected, rhs_evals, jac_evals, factorizations, events, cap_steps, cap_events] =
+        counts;
+    d.stats = Stats {
+        steps,
+        rejected,
+        rhs_evals,
+        jac_evals,
+        factorizations,
+        events,
+    };
+    d.cap = WorkCap {
+        steps: cap_steps,
+        events: cap_events,
+    };
+    d.t_stop = r.f()?;
+    d.y_start = r.fs::<NY>()?;
+    d.method = match r.u()? {
+        1 => {
+            let mut m = Dopri5::new();
+            [m.t, m.t_prev, m.h] = r.fs()?;
+            m.y = r.fs()?;
+            m.k1 = r.fs()?;
+            for row in m.rcont.iter_mut() {
+                *row = r.fs::<NY>()?;
+            }
+            m.facold = r.f()?;
+            Method::Dopri5(m)
+        }
+        2 => {
+            let mut m = TrBdf2::new();
+            [m.t, m.t_prev, m.h] = r.fs()?;
+            let arrays: [State; 4] = [r.fs()?, r.fs()?, r.fs()?, r.fs()?];
+            [m.y, m.f, m.y_prev, m.f_prev] = arrays;
+            let jac: [f64; NY * NY] = r.fs()?;
+            m.jac.as_mut_slice().copy_from_slice(&jac);
+            m.jac_fresh = r.b()?;
+            Method::TrBdf2(m)
+        }
+        tag => return Err(format!("unknown integration method tag {tag}")),
+    };
+    Ok(s)
+}
+
+pub fn encode(s: &Snapshot) -> Vec<u8> {
+    let mut w = Writer::default();
+    w.u(s.state as u64);
+    write_vars(&mut w, Causality::Parameter, &s.params, &s.inputs);
+    write_vars(&mut w, Causality::Input, &s.params, &s.inputs);
+    w.f(s.start_time);
+    w.opt(s.stop_time);
+    w.opt(s.tolerance);
+    w.b(s.sim.is_some());
+    if let Some(sim) = &s.sim {
+        write_sim(&mut w, sim);
+    }
+    let payload = w.0;
+    let mut out = Vec::with_capacity(payload.len() + 80);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(GUID.len() as u32).to_le_bytes());
+    out.extend_from_slice(GUID.as_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&payload);
+    out.extend_from_slice(&fnv64(&payload).to_le_bytes());
+    out
+}
+
+pub fn decode(bytes: &[u8]) -> Result<Snapshot, String> {
+    let take = |pos: &mut usize, n: usize| -> Result<&[u8], String> {
+        let s = bytes
+            .get(*pos..*pos + n)
+            .ok_or_else(|| format!("truncated: {} bytes", bytes.len()))?;
+        *pos += n;
+        Ok(s)
+    };
+    let mut pos = 0;
+    if take(&mut pos, 8)? != MAGIC {
+        return Err("not a SpurGearMesh FMU state (bad magic bytes)".into());
+    }
+    let version = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4"));
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "state format version {version}; this FMU reads version {FORMAT_VERSION}"
+        ));
+    }
+    let glen = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4")) as usize;
+    let guid = String::from_utf8_lossy(take(&mut pos, glen.min(256))?).into_owned();
+    if guid != GUID {
+        return Err(format!(
+            "state of another model build (GUID {guid}, this FMU is {GUID})"
+        ));
+    }
+    let plen = u64::from_le_bytes(take(&mut pos, 8)?.try_into().expect("8")) as usize;
+    if bytes.len() != pos + plen.min(bytes.len()) + 8 || plen > bytes.len() {
+        return Err(format!(
+            "length mismatch: payload of {plen} bytes in a state of {} bytes",
+            bytes.len()
+        ));
+    }
+    let payload = take(&mut pos, plen)?;
+    let sum = u64::from_le_bytes(take(&mut pos, 8)?.try_into().expect("8"));
+    if sum != fnv64(payload) {
+        return Err("checksum mismatch: the state is corrupted".into());
+    }
+    let mut r = Reader {
+        data: payload,
+        pos: 0,
+    };
+    let state = FmiState::from_bits(r.u()?).ok_or("unknown FMI state")?;
+    let (mut params, mut inputs) = (Params::default(), Inputs::default());
+    read_vars(&mut r, Causality::Parameter, &mut params, &mut inputs)?;
+    read_vars(&mut r, Causality::Input, &mut params, &mut inputs)?;
+    let start_time = r.f()?;
+    let stop_time = r.opt()?;
+    let tolerance = r.opt()?;
+    let sim = if r.b()? {
+        Some(read_sim(&mut r, &params, &inputs, start_time)?)
+    } else {
+        None
+    };
+    if r.pos != payload.len() {
+        return Err(format!(
+            "{} unread bytes at the end of the payload",
+            payload.len() - r.pos
+        ));
+    }
+    Ok(Snapshot {
+        state,
+        params,
+        inputs,
+        start_time,
+        stop_time,
+        tolerance,
+        sim,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fmi::instance::Snapshot;
+
+    fn running(solver: i32) -> Snapshot {
+        let mut s = Snapshot::fresh();
+        s.params = Params {
+            solver,
+            w_A_start: 100.0,
+            w_B_start: 66.0,
+            chi: 2.0,
+            mu: 0.1,
+            ..Params::default()
+        };
+        s.inputs = Inputs {
+            tau_A: 100.0,
+            tau_B: -3.0,
+        };
+        s.state = FmiState::StepComplete;
+        let mut sim = Simulation::new(&s.params, &s.inputs, 0.0, 1e-6).unwrap();
+        sim.advance(3.3e-3, &mut |_, _| {}).unwrap();
+        s.sim = Some(sim);
+        s
+    }
+
+    #[test]
+    fn round_trip_is_exact_for_both_methods() {
+        for solver in [1, 2] {
+            let s = running(solver);
+            assert_eq!(decode(&encode(&s)).unwrap(), s);
+        }
+        let fresh = Snapshot::fresh();
+        assert_eq!(decode(&encode(&fresh)).unwrap(), fresh);
+    }
+
+    #[test]
+    fn damaged_states_are_rejected_with_a_reason() {
+        let bytes = encode(&running(1));
+        for n in [0, 7, 20, bytes.len() / 2, bytes.len() - 1] {
+            assert!(decode(&bytes[..n]).is_err(), "truncated to {n}");
+        }
+        let mut flipped = bytes.clone();
+        let k = bytes.len() - 100;
+        flipped[k] ^= 0x10;
+        assert!(decode(&flipped).unwrap_err().contains("checksum"));
+        let mut other = bytes.clone();
+        other[8] = 9;
+        assert!(decode(&other).unwrap_err().contains("version"));
+        let mut guid = bytes.clone();
+        guid[18] ^= 1;
+        assert!(decode(&guid).unwrap_err().contains("GUID"));
+        let mut longer = bytes.clone();
+        longer.push(0);
+        assert!(decode(&longer).is_err());
+    }
+}
