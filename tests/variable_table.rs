@@ -1,0 +1,177 @@
+//! The modelDescription.xml compiled into the binary and the value references the FMI layer
+//! uses come from one table; this test reads the XML back and checks every ScalarVariable
+//! against the generated Rust table.
+
+use quick_xml::events::Event;
+use quick_xml::Reader;
+use spur_gear_mesh::variables::{
+    Causality, Var, VarType, Variability, GUID, MODEL_DESCRIPTION_XML, VARIABLES,
+};
+
+struct XmlVar {
+    name: String,
+    vr: u32,
+    causality: String,
+    variability: String,
+    ty: String,
+}
+
+fn attr(e: &quick_xml::events::BytesStart, key: &str) -> Option<String> {
+    e.attributes()
+        .flatten()
+        .find(|a| a.key.into_inner() == key)
+        .map(|a| {
+            a.normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                .unwrap()
+                .into_owned()
+        })
+}
+
+fn xml_vars() -> (Vec<XmlVar>, String) {
+    let mut r = Reader::from_str(MODEL_DESCRIPTION_XML);
+    let (mut vars, mut guid, mut current) = (Vec::new(), String::new(), None::<XmlVar>);
+    loop {
+        match r.read_event().unwrap() {
+            Event::Start(e) | Event::Empty(e) => match e.name().into_inner() {
+                "fmiModelDescription" => guid = attr(&e, "guid").unwrap(),
+                "ScalarVariable" => {
+                    current = Some(XmlVar {
+                        name: attr(&e, "name").unwrap(),
+                        vr: attr(&e, "valueReference").unwrap().parse().unwrap(),
+                        causality: attr(&e, "causality").unwrap(),
+                        variability: attr(&e, "variability").unwrap(),
+                        ty: String::new(),
+                    })
+                }
+                t @ ("Real" | "Integer" | "Boolean" | "String") => {
+                    let mut v = current
+                        .take()
+                        .expect("a type element inside a ScalarVariable");
+                    v.ty = t.to_string();
+                    vars.push(v);
+                }
+                _ => {}
+            },
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    (vars, guid)
+}
+
+#[test]
+fn xml_and_value_references_agree() {
+    let (vars, guid) = xml_vars();
+    assert_eq!(guid, GUID);
+    assert_eq!(vars.len(), VARIABLES.len());
+    for x in &vars {
+        let v = Var::from_vr(x.vr)
+            .unwrap_or_else(|| panic!("vr {} of {} unknown to the binary", x.vr, x.name));
+        let info = v.info();
+        assert_eq!(info.name, x.name);
+        let ty = match info.ty {
+            VarType::Real => "Real",
+            VarType::Integer => "Integer",
+            VarType::Boolean => "Boolean",
+        };
+        assert_eq!(ty, x.ty, "{}", x.name);
+        let causality = match info.causality {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+        };
+        assert_eq!(causality, x.causality, "{}", x.name);
+        let variability = match info.variability {
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Continuous => "continuous",
+            Variability::Discrete => "discrete",
+        };
+        assert_eq!(variability, x.variability, "{}", x.name);
+    }
+}
+
+/// The interface page's names are a contract: every one of them must exist with its causality.
+#[test]
+fn interface_names_exist() {
+    let names = |c: Causality| -> Vec<&str> {
+        VARIABLES
+            .iter()
+            .filter(|v| v.causality == c)
+            .map(|v| v.name)
+            .collect()
+    };
+    let params = names(Causality::Parameter);
+    for p in [
+        "geometry",
+        "zA_nominal",
+        "zB_nominal",
+        "zA",
+        "zB",
+        "rA",
+        "alpha_factor",
+        "module",
+        "pressure_angle",
+        "xA",
+        "xB",
+        "addendum",
+        "width",
+        "E_A",
+        "E_B",
+        "nu_A",
+        "nu_B",
+        "J_A",
+        "J_B",
+        "backlash",
+        "chi",
+        "mu",
+        "v_reg",
+        "c_load",
+        "contacts_per_flank",
+        "backward_contacts",
+        "w_A_start",
+        "w_B_start",
+        "dte_start",
+        "solver",
+        "rel_tol",
+    ] {
+        assert!(params.contains(&p), "parameter {p}");
+    }
+    assert_eq!(names(Causality::Input), ["tau_A", "tau_B"]);
+    let outputs = names(Causality::Output);
+    for o in [
+        "theta_A",
+        "theta_B",
+        "w_A",
+        "w_B",
+        "dte",
+        "F_f1",
+        "F_f2",
+        "F_b1",
+        "F_b2",
+        "F_fwd",
+        "F_bwd",
+        "n_fwd",
+        "n_bwd",
+        "tau_mesh_A",
+        "tau_mesh_B",
+        "P_loss",
+    ] {
+        assert!(outputs.contains(&o), "output {o}");
+    }
+    let calc = names(Causality::CalculatedParameter);
+    for c in [
+        "alpha_w",
+        "rAb",
+        "rBb",
+        "line_of_action",
+        "s_a",
+        "s_b",
+        "contact_ratio",
+        "r_tipA",
+        "r_tipB",
+    ] {
+        assert!(calc.contains(&c), "calculated parameter {c}");
+    }
+}

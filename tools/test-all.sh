@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Runs every test: Rust unit and integration tests, then the packaged FMU through FMPy (pytest).
+# Usage: bash tools/test-all.sh        (the README's test command; .ci/run calls it)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+py=$(bash tools/venv.sh)
+echo "== cargo test (release: the integration tests simulate real scenes)"
+cargo test --workspace --release
+echo "== package the FMU"
+cargo run -q -p fmu-packaging --release
+echo "== FMU tests through FMPy"
+"$py" -m pytest -q tests/python
