@@ -20,8 +20,9 @@ pub trait System {
     fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]);
     fn margin(&self, i: usize, y: &State) -> f64;
     fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange>;
-    /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch).
-    fn max_step(&self, y: &State) -> f64;
+    /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
+    /// explicit method stays inside its stability region.
+    fn max_step(&self, y: &State, explicit: bool) -> f64;
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -114,7 +115,7 @@ pub fn initial_step<S: System>(
     } else {
         0.01 * d0 / d1
     };
-    let h0 = h0.min(sys.max_step(y));
+    let h0 = h0.min(sys.max_step(y, true));
     let y1: State = std::array::from_fn(|i| y[i] + h0 * f0[i]);
     let mut f1 = [0.0; NY];
     sys.rhs(&y1, &mut f1).map_err(StepError::Law)?;
@@ -126,7 +127,7 @@ pub fn initial_step<S: System>(
     } else {
         (0.01 / d1.max(d2)).powf(1.0 / (order as f64 + 1.0))
     };
-    Ok((100.0 * h0).min(h1).min(sys.max_step(y)))
+    Ok((100.0 * h0).min(h1).min(sys.max_step(y, true)))
 }
 
 /// The integration methods, chosen by the `solver` parameter.
@@ -329,8 +330,9 @@ impl Driver {
                     events: self.cap.events,
                 });
             }
+            let explicit = matches!(self.method, Method::Dopri5(_));
             let h_max = sys
-                .max_step(self.method.y())
+                .max_step(self.method.y(), explicit)
                 .min(self.t_stop - self.method.t());
             let h_max = if h_max > 0.0 { h_max } else { f64::INFINITY };
             self.method

@@ -400,6 +400,25 @@ impl Mesh {
         }
     }
 
+    /// Highest natural frequency of the wheels on the carrying contacts [rad/s]: tangent mesh
+    /// stiffness times the reduced inverse inertia (rAb^2/J_A + rBb^2/J_B); 0 without contact.
+    pub fn vibration_frequency(&self, y: &State) -> f64 {
+        let mut k = 0.0;
+        for f in [Flank::Forward, Flank::Backward] {
+            let pairs = (0..SLOTS)
+                .filter(|&k| slot_flank(k) == f && self.carrying(k))
+                .count();
+            if pairs > 0 {
+                let (delta, _) = self.flank_delta(f, y);
+                let stiffness =
+                    johnson::stiffness(delta, self.geo.l + delta, self.geo.e_star).unwrap_or(0.0);
+                k += pairs as f64 * self.width * stiffness;
+            }
+        }
+        let g = &self.geo;
+        (k * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b)).sqrt()
+    }
+
     /// Elastic energy of the carrying pairs.
     pub fn elastic_energy(&self, y: &State) -> Result<f64, LawOutOfRange> {
         let mut e = 0.0;

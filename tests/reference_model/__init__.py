@@ -1,0 +1,1 @@
+"""Independent Python reference model of the SpurGearMesh FMU (see gearmesh_ref.py)."""
