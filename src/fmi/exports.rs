@@ -6,7 +6,7 @@
 
 use super::fmu_state;
 use super::instance::{allowed, error, CallResult, FmiState, Instance, Snapshot, MAGIC};
-use super::logging::Logger;
+use super::logging::{Category, Logger};
 use super::{Boolean, CallbackFunctions, Component, FmuState, Status, ValueReference};
 use super::{DO_STEP_STATUS, LAST_SUCCESSFUL_TIME, PENDING_STATUS, TERMINATED, TYPE_CO_SIMULATION};
 use crate::variables::{VarType, GUID};
@@ -513,6 +513,8 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
 
 /// fmi2GetStatus and friends: only fmi2LastSuccessfulTime and fmi2Terminated exist here;
 /// the others answer fmi2Discard, as the standard asks for a status that is not available.
+/// Like every fmi2Discard, it is explained through the logger (logStatusDiscard); the state
+/// does not change.
 unsafe fn status_query<T>(
     c: Component,
     func: &str,
@@ -532,6 +534,20 @@ unsafe fn status_query<T>(
                 DO_STEP_STATUS | PENDING_STATUS | LAST_SUCCESSFUL_TIME | TERMINATED
             ) =>
             {
+                i.log.log(
+                    Status::Discard,
+                    Category::Discard,
+                    &format!(
+                        "{func}: {} is not available from this function \
+                         (fmi2DoStep runs synchronously and never returns fmi2Pending)",
+                        [
+                            "fmi2DoStepStatus",
+                            "fmi2PendingStatus",
+                            "fmi2LastSuccessfulTime",
+                            "fmi2Terminated"
+                        ][kind as usize]
+                    ),
+                );
                 Ok(Status::Discard)
             }
             None => Err(error(format!("unknown fmi2StatusKind {kind}"))),
