@@ -3,7 +3,7 @@
 
 use super::{Driver, DriverError, Method, System, Tolerance};
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::mesh::{saturate, EventReport, LawOutOfRange};
 use crate::model::{Loads, Mesh, ModelError, State};
 use crate::variables::{Inputs, Outputs, Params};
 
@@ -85,6 +85,14 @@ impl Simulation {
     }
 
     pub fn outputs(&self) -> Result<Outputs, LawOutOfRange> {
-        self.mesh.outputs(&self.driver.state())
+        let st = &self.driver.stats;
+        Ok(Outputs {
+            n_steps: saturate(st.steps),
+            n_rejected_steps: saturate(st.rejected),
+            n_rhs_evaluations: saturate(st.rhs_evals),
+            n_jacobians: saturate(st.jac_evals),
+            n_factorizations: saturate(st.factorizations),
+            ..self.mesh.outputs(&self.driver.state())?
+        })
     }
 }

@@ -501,7 +501,13 @@ impl Mesh {
             W_loss: y[W_LOSS],
             E_gate: self.e_gate,
             energy_residual: balance - self.e_start,
-            n_events: self.n_events.min(i32::MAX as u64) as i32,
+            n_events: saturate(self.n_events),
+            // The driver's counters; the simulation fills them in.
+            n_steps: 0,
+            n_rejected_steps: 0,
+            n_rhs_evaluations: 0,
+            n_jacobians: 0,
+            n_factorizations: 0,
         })
     }
 
@@ -528,6 +534,11 @@ impl Mesh {
     pub fn abs_tol(rel_tol: f64) -> [f64; N_CONTROLLED] {
         [rel_tol, rel_tol * 1e-7, rel_tol, rel_tol]
     }
+}
+
+/// A counter as an FMI Integer, saturating at 2^31 - 1.
+pub fn saturate(n: u64) -> i32 {
+    n.min(i32::MAX as u64) as i32
 }
 
 #[cfg(test)]
