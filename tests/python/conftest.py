@@ -7,7 +7,6 @@ the tests exercise exactly the binary a user would get.
 
 import math
 import subprocess
-from ctypes import byref  # noqa: F401  (kept for tests that pass raw pointers)
 from pathlib import Path
 
 import fmpy
@@ -66,7 +65,7 @@ class Instance:
     """An FMU2Slave with a logger that records (status, category, message) of every log call,
     and name-based typed get/set."""
 
-    def __init__(self, unzip_dir, md, name="inst", guid=None, logging_on=False):
+    def __init__(self, unzip_dir, md, name="inst", guid=None, logging_on=False, instantiate=True):
         self.md = md
         self.vars = {v.name: v for v in md.modelVariables}
         self.messages = []
@@ -93,9 +92,10 @@ class Instance:
         self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         self.instantiated = False
-        self.slave.instantiate(callbacks=self.callbacks, loggingOn=logging_on)
-        self.instantiated = True
         self.t = 0.0
+        if instantiate:
+            self.slave.instantiate(callbacks=self.callbacks, loggingOn=logging_on)
+            self.instantiated = True
 
     # ---- values by name ----------------------------------------------------------------------
     def set(self, **values):
