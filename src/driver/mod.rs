@@ -20,6 +20,8 @@ pub trait System {
     fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]);
     fn margin(&self, i: usize, y: &State) -> f64;
     fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange>;
+    /// Checks an accepted state against limits the right-hand side does not see.
+    fn check_state(&self, y: &State) -> Result<(), LawOutOfRange>;
     /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
     /// explicit method stays inside its stability region.
     fn max_step(&self, y: &State, explicit: bool) -> f64;
@@ -228,9 +230,11 @@ pub struct WorkCap {
 
 impl Default for WorkCap {
     fn default() -> Self {
+        // About a second of work at worst: a master asking for more in one step gets fmi2Discard
+        // and can retry with shorter communication steps.
         WorkCap {
-            steps: 5_000_000,
-            events: 1_000_000,
+            steps: 1_000_000,
+            events: 200_000,
         }
     }
 }
@@ -338,6 +342,9 @@ impl Driver {
             self.method
                 .step(sys, h_max, &self.tol, &mut self.stats)
                 .map_err(|e| self.step_error(e))?;
+            let t = self.method.t();
+            sys.check_state(self.method.y())
+                .map_err(|err| DriverError::Law { t, err })?;
             self.pending = self.locate(sys);
         }
     }

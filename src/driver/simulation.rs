@@ -17,6 +17,9 @@ impl System for Mesh {
     fn margin(&self, i: usize, y: &State) -> f64 {
         Mesh::margin(self, crate::model::contact::EventFn::from_index(i), y)
     }
+    fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
+        Mesh::check_state(self, y)
+    }
     fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange> {
         Mesh::handle_event(self, i, y)
     }
@@ -57,7 +60,7 @@ impl Simulation {
         let (mesh, y0) = Mesh::new(p, inputs)?;
         let tol = Tolerance {
             rtol: rel_tol,
-            atol: Mesh::abs_tol(rel_tol),
+            atol: mesh.abs_tol(rel_tol),
         };
         let driver = Driver::new(Method::from_solver(p.solver), tol, t0, y0);
         Ok(Simulation { mesh, driver })
@@ -73,6 +76,7 @@ impl Simulation {
             self.driver.invalidate();
             let y = self.driver.state();
             self.mesh.set_loads(loads, &y);
+            self.driver.tol.atol = self.mesh.abs_tol(self.driver.tol.rtol);
         }
     }
 

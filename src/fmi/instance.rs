@@ -301,20 +301,20 @@ impl Instance {
         Ok(got.expect("the generated table gives every variable a getter of its type"))
     }
 
-    /// Checks that a variable may be set now; returns whether the running simulation must see it.
-    fn settable(&self, v: Var) -> Result<bool, Failure> {
+    /// Checks that a variable may be set now to the value shown (for the message).
+    fn settable(&self, v: Var, shown: &dyn std::fmt::Display) -> Result<(), Failure> {
         let info = v.info();
         let running = self.snap.state == FmiState::StepComplete;
         match (info.causality, info.variability) {
             (Causality::Output | Causality::CalculatedParameter, _) => Err(error(format!(
-                "{} is a {:?}: it cannot be set",
-                info.name, info.causality
+                "{} = {shown}: {} is a {:?}, it cannot be set",
+                info.name, info.name, info.causality
             ))),
             (Causality::Parameter, Variability::Fixed) if running => Err(error(format!(
-                "{} is a fixed parameter: it cannot be set after initialization",
-                info.name
+                "{} = {shown}: {} is a fixed parameter, it cannot be set after initialization",
+                info.name, info.name
             ))),
-            _ => Ok(running),
+            _ => Ok(()),
         }
     }
 
@@ -330,7 +330,7 @@ impl Instance {
         let (mut params, mut inputs) = (self.snap.params.clone(), self.snap.inputs.clone());
         for (&vr, &x) in vrs.iter().zip(values) {
             let v = self.lookup(vr, ty)?;
-            self.settable(v)?;
+            self.settable(v, &x)?;
             if !check(x) {
                 return Err(error(format!(
                     "{} = {x}: the value must be finite",

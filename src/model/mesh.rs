@@ -26,21 +26,28 @@ pub const W_LOSS: usize = 5;
 /// Components under error control; the two quadratures do not feed back into the dynamics.
 pub const N_CONTROLLED: usize = 4;
 
-/// The Johnson law left its range on a flank (spec §4): reported with the contact, the
-/// penetration and the limit.
+/// A contact left the model's range: reported with the contact, the penetration and the limit.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LawOutOfRange {
     pub contact: String,
     pub delta: f64,
     pub limit: f64,
+    pub limit_name: &'static str,
 }
+
+/// The Johnson law's own range (spec §4).
+pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
+/// Beyond the segment length no pair can be gated (s_A - delta >= s_a and s_A <= s_b): the teeth
+/// would pass through each other and the mesh would carry nothing.
+pub const SEGMENT_LIMIT: &str =
+    "the contact segment length |ab|, beyond which the teeth would pass through each other";
 
 impl std::fmt::Display for LawOutOfRange {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         write!(
             f,
-            "Johnson contact law out of range on contact {}: penetration {} m reaches the limit 4(rho_A+rho_B)/e^2 = {} m",
-            self.contact, self.delta, self.limit
+            "contact {} out of the model's range: penetration {} m reaches {} = {} m",
+            self.contact, self.delta, self.limit_name, self.limit
         )
     }
 }
@@ -232,13 +239,38 @@ impl Mesh {
             contact: names.join("+"),
             delta: e.delta,
             limit: e.limit,
+            limit_name: JOHNSON_LIMIT,
         }
     }
 
-    /// Checks the law's range on every carrying flank (for initial and accepted states).
+    /// The penetration of each flank must stay below the segment length (see SEGMENT_LIMIT);
+    /// the Johnson range itself is checked by every right-hand-side evaluation.
+    pub fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
+        let ab = self.geo.s_b - self.geo.s_a;
+        for f in [Flank::Forward, Flank::Backward] {
+            let delta = self.flank_delta(f, y).0;
+            if self.flank_present(f) && !(delta < ab) {
+                let contact = if f == Flank::Forward {
+                    "forward flank"
+                } else {
+                    "backward flank"
+                };
+                return Err(LawOutOfRange {
+                    contact: contact.into(),
+                    delta,
+                    limit: ab,
+                    limit_name: SEGMENT_LIMIT,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks both limits at a state (the initial one).
     pub fn check_range(&self, y: &State) -> Result<(), LawOutOfRange> {
         let mut dy = [0.0; NY];
-        self.rhs(y, &mut dy)
+        self.rhs(y, &mut dy)?;
+        self.check_state(y)
     }
 
     fn event_active(&self, e: EventFn) -> bool {
@@ -314,10 +346,11 @@ impl Mesh {
                 EventFn::Pen(_) => ddelta,
                 EventFn::Rel(_) => 0.0,
             };
+            // At rest on the boundary: the spec's gate and window are closed intervals (>=).
             if rate != 0.0 {
                 rate > 0.0
             } else {
-                v > 0.0
+                v >= 0.0
             }
         };
         self.sign[e.index()] = positive;
@@ -528,11 +561,28 @@ impl Mesh {
         }
     }
 
-    /// Error-control scale of each controlled component at a given relative tolerance:
-    /// 1 rad for the angle, 1e-7 m for the penetration (a loaded steel mesh presses 1e-7..1e-6 m),
-    /// 1 rad/s for the speeds; relative control takes over above these magnitudes.
-    pub fn abs_tol(rel_tol: f64) -> [f64; N_CONTROLLED] {
-        [rel_tol, rel_tol * 1e-7, rel_tol, rel_tol]
+    /// Absolute error tolerances of the controlled components at a relative tolerance: 1 rad
+    /// for the angle and 1 rad/s for the speeds (relative control takes over above), and for
+    /// the penetration the static penetration of one pair under the contact force that the
+    /// current torques imply (floor 1e-12 m), so dte stays under control from milli-newton to
+    /// mega-newton loads.
+    pub fn abs_tol(&self, rel_tol: f64) -> [f64; N_CONTROLLED] {
+        let g = &self.geo;
+        let force = self.loads.tau_a.abs() / g.r_ab + self.loads.tau_b.abs() / g.r_bb;
+        let n = force / self.width;
+        let delta = if n > 0.0 {
+            // Eq. 5.1 at R = L: delta(N), monotone, no iteration needed for a scale.
+            n / (std::f64::consts::PI * g.e_star)
+                * ((4.0 * std::f64::consts::PI * g.e_star * g.l / n).ln() - 1.0)
+        } else {
+            0.0
+        };
+        let delta = if delta.is_finite() {
+            delta.max(1e-12)
+        } else {
+            1e-12
+        };
+        [rel_tol, rel_tol * delta, rel_tol, rel_tol]
     }
 }
 
