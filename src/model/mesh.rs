@@ -615,13 +615,14 @@ mod tests {
     fn initial_modes_of_the_paper_rig() {
         let (p, i) = paper();
         let (m, y) = Mesh::new(&p, &i).unwrap();
-        // f1 at a (moving onto the segment) and f2 one pitch ahead are both gated; at dte = 0
-        // with no relative speed neither flank touches yet: the onset is the first event.
+        // f1 at a (moving onto the segment) and f2 one pitch ahead are both gated. At dte = 0
+        // with no relative speed the forward flank touches (the spec's closed interval) with
+        // zero force; the backward flank is a backlash away.
         assert!(m.sign[EventFn::Gate(0).index()] && m.sign[EventFn::Gate(1).index()]);
         assert!(!m.sign[EventFn::Gate(2).index()] && m.sign[EventFn::Gate(3).index()]);
-        assert!(!m.flank_on(Flank::Forward) && !m.flank_on(Flank::Backward));
+        assert!(m.flank_on(Flank::Forward) && !m.flank_on(Flank::Backward));
         let o = m.outputs(&y).unwrap();
-        assert_eq!((o.F_fwd, o.n_fwd), (0.0, 0));
+        assert_eq!((o.F_fwd, o.n_fwd), (0.0, 2));
     }
 
     /// Spec §4: the power of the contact torques equals -F_n d(delta)/dt - F_t v_s, i.e. the
