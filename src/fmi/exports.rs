@@ -7,11 +7,14 @@
 use super::fmu_state;
 use super::instance::{allowed, error, CallResult, FmiState, Instance, Snapshot, MAGIC};
 use super::logging::{Category, Logger};
-use super::{Boolean, CallbackFunctions, Component, FmuState, Status, ValueReference};
+use super::{
+    Boolean, CallbackFunctions, Component, EventInfo, FmuState, Status, StatusKind, Type,
+    ValueReference,
+};
 use super::{DO_STEP_STATUS, LAST_SUCCESSFUL_TIME, PENDING_STATUS, TERMINATED, TYPE_CO_SIMULATION};
 use crate::variables::{VarType, GUID};
 use std::ffi::CStr;
-use std::os::raw::{c_char, c_int, c_void};
+use std::os::raw::{c_char, c_int};
 
 /// More values than any master can mean; guards against garbage counts.
 const MAX_VALUES: usize = 1 << 20;
@@ -86,7 +89,7 @@ pub extern "C" fn fmi2GetVersion() -> *const c_char {
 #[no_mangle]
 pub unsafe extern "C" fn fmi2Instantiate(
     instance_name: *const c_char,
-    fmu_type: c_int,
+    fmu_type: Type,
     guid: *const c_char,
     _resource_location: *const c_char,
     functions: *const CallbackFunctions,
@@ -518,9 +521,9 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
 unsafe fn status_query<T>(
     c: Component,
     func: &str,
-    kind: c_int,
+    kind: StatusKind,
     value: *mut T,
-    get: impl FnOnce(&Instance, c_int) -> Option<T>,
+    get: impl FnOnce(&Instance, StatusKind) -> Option<T>,
 ) -> Status {
     with(c, func, allowed::STATUS, |i| {
         let out = slice_mut(value, 1, "value")?;
@@ -556,12 +559,20 @@ unsafe fn status_query<T>(
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetStatus(c: Component, kind: c_int, value: *mut Status) -> Status {
+pub unsafe extern "C" fn fmi2GetStatus(
+    c: Component,
+    kind: StatusKind,
+    value: *mut Status,
+) -> Status {
     status_query(c, "fmi2GetStatus", kind, value, |_, _| None)
 }
 
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetRealStatus(c: Component, kind: c_int, value: *mut f64) -> Status {
+pub unsafe extern "C" fn fmi2GetRealStatus(
+    c: Component,
+    kind: StatusKind,
+    value: *mut f64,
+) -> Status {
     status_query(c, "fmi2GetRealStatus", kind, value, |i, k| {
         (k == LAST_SUCCESSFUL_TIME).then(|| i.time())
     })
@@ -570,7 +581,7 @@ pub unsafe extern "C" fn fmi2GetRealStatus(c: Component, kind: c_int, value: *mu
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetIntegerStatus(
     c: Component,
-    kind: c_int,
+    kind: StatusKind,
     value: *mut c_int,
 ) -> Status {
     status_query(c, "fmi2GetIntegerStatus", kind, value, |_, _| None)
@@ -579,7 +590,7 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetBooleanStatus(
     c: Component,
-    kind: c_int,
+    kind: StatusKind,
     value: *mut Boolean,
 ) -> Status {
     // The FMU never asks the master to stop.
@@ -591,7 +602,7 @@ pub unsafe extern "C" fn fmi2GetBooleanStatus(
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStringStatus(
     c: Component,
-    kind: c_int,
+    kind: StatusKind,
     value: *mut *const c_char,
 ) -> Status {
     status_query(c, "fmi2GetStringStatus", kind, value, |_, _| None)
@@ -613,7 +624,7 @@ macro_rules! model_exchange_only {
 
 model_exchange_only! {
     fmi2EnterEventMode();
-    fmi2NewDiscreteStates(event_info: *mut c_void);
+    fmi2NewDiscreteStates(event_info: *mut EventInfo);
     fmi2EnterContinuousTimeMode();
     fmi2CompletedIntegratorStep(no_set_prior: Boolean, enter_event_mode: *mut Boolean, terminate: *mut Boolean);
     fmi2SetTime(time: f64);

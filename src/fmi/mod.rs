@@ -14,6 +14,14 @@ pub type ComponentEnvironment = *mut c_void;
 pub type FmuState = *mut c_void;
 pub type ValueReference = c_uint;
 pub type Boolean = c_int;
+/// fmi2Type and fmi2StatusKind: C enums, int-sized.
+pub type Type = c_int;
+pub type StatusKind = c_int;
+/// fmi2EventInfo: only Model Exchange uses it; opaque here.
+#[repr(C)]
+pub struct EventInfo {
+    _opaque: [u8; 0],
+}
 
 /// fmi2Status.
 #[repr(C)]
@@ -50,11 +58,11 @@ pub struct CallbackFunctions {
 }
 
 /// fmi2Type.
-pub const TYPE_MODEL_EXCHANGE: c_int = 0;
-pub const TYPE_CO_SIMULATION: c_int = 1;
+pub const TYPE_MODEL_EXCHANGE: Type = 0;
+pub const TYPE_CO_SIMULATION: Type = 1;
 
 /// fmi2StatusKind.
-pub const DO_STEP_STATUS: c_int = 0;
-pub const PENDING_STATUS: c_int = 1;
-pub const LAST_SUCCESSFUL_TIME: c_int = 2;
-pub const TERMINATED: c_int = 3;
+pub const DO_STEP_STATUS: StatusKind = 0;
+pub const PENDING_STATUS: StatusKind = 1;
+pub const LAST_SUCCESSFUL_TIME: StatusKind = 2;
+pub const TERMINATED: StatusKind = 3;
