@@ -349,6 +349,7 @@ class Config:
     kf: tuple                   # carrying forward pairs
     kb: tuple                   # carrying backward pairs
     sig: dict = field(default_factory=dict)  # sign multipliers of the event functions
+    kin: tuple = ()             # uA, uB, wA, wB, aA, aB, e, v, d2e/dt2 at the restart
 
     @property
     def key(self):
@@ -363,6 +364,7 @@ class Result:
     n_restarts: int
     energy: dict | None = None  # optional bookkeeping for the energy test
     n_missed: int = 0           # contact-state changes found only at a segment end
+    n_hidden: int = 0           # sign changes hidden inside one step, found by the guards
 
     def column(self, name):
         return self.table[:, self.names.index(name)]
@@ -466,13 +468,22 @@ class GearMesh:
     TOL_DELTA = 1e-16   # m: |delta| below this at a restart is a tie (broken by derivatives)
     TOL_POS = 1e-12     # m: same for gate positions along the line of action
     TOL_REL = 1e-12     # release function 1 + chi*ddelta
+    TOL_V = 1e-14       # m/s: d(delta)/dt
+    TOL_W = 1e-11       # rad/s: wheel speeds
 
-    @staticmethod
-    def _side(c, c1, c2, tol):
-        """Is c >= 0 just after now, given c, dc/dt, d2c/dt2?"""
-        if c > tol:
+    T_TIE = 1e-12       # s: a function this close (in time) to its zero is a tie
+
+    @classmethod
+    def _side(cls, c, c1, c2, tol):
+        """Is c >= 0 just after now, given c, dc/dt, d2c/dt2?
+
+        |c| within tol, or within what c moves in T_TIE (far below the event root finder's
+        time resolution would matter: its bracket is ~1e-15 s), counts as a tie at zero and
+        is decided by the derivatives."""
+        band = tol + abs(c1) * cls.T_TIE + 0.5 * abs(c2) * cls.T_TIE ** 2
+        if c > band:
             return True
-        if c < -tol:
+        if c < -band:
             return False
         if c1 != 0.0:
             return c1 > 0.0
@@ -545,7 +556,8 @@ class GearMesh:
                     kb.append(k)
             sig["ub"] = self._periodic_sign(uA - (g.sigma_b1 - g.s_b), rAb * wA, rAb * aA)
             sig["lb"] = self._periodic_sign(uB - (g.sigma_b1 + jb - g.s_a), rBb * wB, rBb * aB)
-        return Config(on_f, on_b, tuple(kf), tuple(kb), sig)
+        kin = (uA, uB, wA, wB, aA, aB, e, v, e2)
+        return Config(on_f, on_b, tuple(kf), tuple(kb), sig, kin)
 
     def _periodic_sign(self, xi, xi1, xi2):
         """Sign s such that s*sin(pi*xi/p_b) >= 0 just after now."""
@@ -553,15 +565,7 @@ class GearMesh:
         n = round(xi / p_b)
         r = xi - n * p_b
         parity = -1.0 if n % 2 else 1.0
-        if abs(r) > self.TOL_POS:
-            s = 1.0 if r > 0 else -1.0
-        elif xi1 != 0.0:
-            s = 1.0 if xi1 > 0 else -1.0
-        elif xi2 != 0.0:
-            s = 1.0 if xi2 > 0 else -1.0
-        else:
-            s = 1.0
-        return parity * s
+        return parity * (1.0 if self._side(r, xi1, xi2, self.TOL_POS) else -1.0)
 
     def _classify(self, y, tauA, tauB):
         prelim = self._decide(y, (0.0, 0.0), tie_aware=False)
@@ -576,53 +580,121 @@ class GearMesh:
         return cfg
 
     # ---------------------------------------------------------------- events
-    def _make_events(self, cfg, t0, y0):
-        """Terminal event functions for one segment, each >= 0 at (t0, y0).
+    def _make_events(self, cfg):
+        """Terminal event functions for one segment (all detect + -> - crossings).
 
-        A function that starts a hair below zero (a tie at the restart broken by the time
-        derivatives) is lifted by that hair: otherwise a dip below zero and back within the
-        first step (e.g. separation at grazing followed by re-contact) would not be seen as a
-        sign change between step ends and the segment would run on with a wrong contact state.
+        Contact-state functions (delta of each flank, the periodic gate functions, damped
+        release) are multiplied by the sign that makes them positive just after the restart.
+        Monotonicity guards make every contact-state function monotone between restarts, so
+        a sign change can never hide inside one step (a dip below zero and back):
+          * extrema of each flank's delta that could carry it across zero (zeros of v),
+          * reversals of either wheel (zeros of w_A, w_B) while a flank is closed,
+          * a maximum step short enough that no gate coordinate moves p_b/8 in one step
+            (set in simulate()).
+        A function that is within a hair of zero at the restart (a tie broken by its time
+        derivatives) is shifted by that hair to the side it moves to, so that it neither
+        re-fires at its own restart nor lets the root finder return the restart instant.
         """
         g, p = self.g, self.p
-        rAb, p_b = g.rAb, g.p_b
+        rAb, rBb, p_b = g.rAb, g.rBb, g.p_b
         k_pi = math.pi / p_b
         chi = p["chi"]
+        uA, uB, wA, wB, aA, aB, e, v, e2 = cfg.kin
         evs = []
 
-        def add(fn):
-            g0 = fn(t0, y0)
-            if g0 < 0.0:
-                off = -g0
+        def add(fn, c, c1, c2, tol, band):
+            after = self._side(c, c1, c2, tol)
+            off = 0.0
+            if after and c < band:
+                off = band - c
+            elif not after and c > -band:
+                off = -(band + c)
+            if off != 0.0:
                 raw = fn
                 fn = lambda t, y: raw(t, y) + off
             fn.terminal = True
             fn.direction = -1.0
+            fn.band = band
             evs.append(fn)
+
+        def add_periodic(sig, c0, coef, xi, xi1, xi2):
+            # sig * sin(pi*(coef.y - c0)/p_b), xi = its argument's current value
+            s_, c_ = math.sin(k_pi * xi), math.cos(k_pi * xi)
+            w1 = k_pi * xi1
+            val, d1, d2 = sig * s_, sig * c_ * w1, sig * (c_ * k_pi * xi2 - s_ * w1 * w1)
+            cA, cE = coef
+            add(lambda t, y: sig * math.sin(k_pi * (cA * y[0] + cE * y[1] - c0)),
+                val, d1, d2, k_pi * self.TOL_POS, 1e-12)
 
         s = cfg.sig
         sdf = s["df"]
-        add(lambda t, y: sdf * y[1])
-        if p["backward_contacts"]:
+        add(lambda t, y: sdf * y[1], sdf * e, sdf * v, sdf * e2, self.TOL_DELTA, 1e-20)
+        bwd = p["backward_contacts"]
+        if bwd:
             sdb, jb = s["db"], g.backlash
-            add(lambda t, y: sdb * (-jb - y[1]))
+            add(lambda t, y: sdb * (-jb - y[1]), sdb * (-jb - e), -sdb * v, -sdb * e2,
+                self.TOL_DELTA, 1e-20)
         if cfg.on_f:
-            suf, slf, cu = s["uf"], s["lf"], g.s_b - g.s_a
-            add(lambda t, y: suf * math.sin(k_pi * (rAb * y[0] - cu)))
-            add(lambda t, y: slf * math.sin(k_pi * (rAb * y[0] - y[1])))
+            cu = g.s_b - g.s_a
+            add_periodic(s["uf"], cu, (rAb, 0.0), uA - cu, rAb * wA, rAb * aA)
+            add_periodic(s["lf"], 0.0, (rAb, -1.0), uB, rBb * wB, rBb * aB)
             if chi > 0.0:
                 srf = s["rf"]
-                add(lambda t, y: srf * (1.0 + chi * y[3]))
+                add(lambda t, y: srf * (1.0 + chi * y[3]), srf * (1.0 + chi * v), srf * chi * e2,
+                    0.0, self.TOL_REL, 1e-14)
         if cfg.on_b:
-            sub, slb = s["ub"], s["lb"]
             cu_b = g.sigma_b1 - g.s_b
             cl_b = g.sigma_b1 + g.backlash - g.s_a
-            add(lambda t, y: sub * math.sin(k_pi * (rAb * y[0] - cu_b)))
-            add(lambda t, y: slb * math.sin(k_pi * (rAb * y[0] - y[1] - cl_b)))
+            add_periodic(s["ub"], cu_b, (rAb, 0.0), uA - cu_b, rAb * wA, rAb * aA)
+            add_periodic(s["lb"], cl_b, (rAb, -1.0), uB - cl_b, rBb * wB, rBb * aB)
             if chi > 0.0:
                 srb = s["rb"]
-                add(lambda t, y: srb * (1.0 - chi * y[3]))
-        return evs
+                add(lambda t, y: srb * (1.0 - chi * y[3]), srb * (1.0 - chi * v), -srb * chi * e2,
+                    0.0, self.TOL_REL, 1e-14)
+        # guards (non-terminal): zeros of v = d(dte)/dt (extrema of both flanks' delta) and of
+        # the wheel speeds (reversals of the gate coordinates); see _check_guards.
+        guards = []
+        for fn in (lambda t, y: y[3],
+                   lambda t, y: y[2],
+                   lambda t, y: (rAb * y[2] - y[3]) / rBb):
+            fn.terminal = False
+            fn.direction = 0.0
+            guards.append(fn)
+        return evs, guards
+
+    def _check_guards(self, sol, t0, evs, n_guard):
+        """Find a contact-state change hidden inside one step.
+
+        Between consecutive zeros of v, delta of each flank is monotone, and between zeros of
+        w_A (w_B) every gate coordinate on A (B) is monotone and moves < p_b/8 per step; so a
+        sign change of a contact-state function that solve_ivp could not see (a dip below zero
+        and back within one step) must straddle a guard root.  At each guard root (in time
+        order) every terminal function is evaluated; if one is negative there, its first root
+        inside the step that contains the guard root is located and returned (the segment is
+        then cut there, exactly as at a located event).  Returns None if nothing was hidden.
+        """
+        t_end = sol.t[-1]
+        roots = []
+        for tev in sol.t_events[len(evs):len(evs) + n_guard]:
+            roots.extend(float(x) for x in tev if t0 < x < t_end)
+        if not roots:
+            return None
+        from scipy.optimize import brentq
+        steps = np.asarray(sol.t)
+        for te in sorted(roots):
+            ye = sol.sol(te)
+            bad = [fn for fn in evs if fn(te, ye) < -fn.band]
+            if not bad:
+                continue
+            i = int(np.searchsorted(steps, te, side="left")) - 1
+            t_lo = float(steps[max(i, 0)])
+            best = te
+            for fn in bad:
+                if fn(t_lo, sol.sol(t_lo)) > 0.0:
+                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, te, xtol=1e-16, rtol=4e-16)
+                    best = min(best, tc)
+            return best
+        return None
 
     # ---------------------------------------------------------------- outputs
     def outputs(self, t, y, cfg):
@@ -701,29 +773,63 @@ class GearMesh:
                 return [wA, v, aA, rAb * aA - rBb * aB]
             return rhs
 
+        jac_scale = atol / rtol
+
+        def make_jac(rhs):
+            """Central differences with fixed, scale-aware steps (scipy's adaptive num_jac
+            diverges on the columns that do not enter the right-hand side, e.g. theta_A
+            without friction).  Only Newton convergence depends on it, not the result."""
+            def jac(t, y):
+                J = np.empty((n_state, n_state))
+                for i in range(n_state):
+                    h = 1e-7 * max(abs(y[i]), jac_scale[i])
+                    yp = np.array(y, dtype=float)
+                    ym = yp.copy()
+                    yp[i] += h
+                    ym[i] -= h
+                    J[:, i] = (np.asarray(rhs(t, yp)) - np.asarray(rhs(t, ym))) / (2 * h)
+                return J
+            return jac
+
         t = 0.0
         seg = inputs.segment(t)
         tau_now = lambda tt, sg: (sg[1] + sg[2] * (tt - sg[0]), sg[3] + sg[4] * (tt - sg[0]))
         cfg = self._classify(y, *tau_now(t, seg))
         seg_max = 20.0 * output_interval   # reclassify at least this often (missed-event guard)
         n_missed = 0
+        n_hidden = 0
         segments = []    # (t0, t1, OdeSolution, cfg)
         events = []      # (t, y, cfg_before, cfg_after)
         energy_jumps = []
         n_restart = 0
-        max_step = output_interval
         while t < stop_time:
             seg = inputs.segment(t)
             t_hi = min(inputs.next_break(t), stop_time, t + seg_max)
             if stop_time - t_hi < 1e-3 * output_interval:
                 t_hi = min(inputs.next_break(t), stop_time)
-            sol = solve_ivp(make_rhs(cfg, seg), (t, t_hi), y, method=method, rtol=rtol,
-                            atol=atol, events=self._make_events(cfg, t, y), dense_output=True,
-                            max_step=max_step)
+            uA_, uB_, wA_, wB_, aA_, aB_ = cfg.kin[:6]
+            line_speed = (max(abs(rAb * wA_), abs(rBb * wB_))
+                          + max(abs(rAb * aA_), abs(rBb * aB_)) * (t_hi - t))
+            max_step = min(output_interval, g.p_b / (8.0 * line_speed + 1e-300))
+            rhs = make_rhs(cfg, seg)
+            extra = {}
+            if method in ("Radau", "BDF", "LSODA"):
+                extra["jac"] = make_jac(rhs)
+            evs, guards = self._make_events(cfg)
+            sol = solve_ivp(rhs, (t, t_hi), y, method=method, rtol=rtol,
+                            atol=atol, events=evs + guards, dense_output=True,
+                            max_step=max_step, **extra)
             if sol.status < 0:
                 raise RuntimeError(f"solve_ivp failed at t = {t}: {sol.message}")
             t_new = float(sol.t[-1])
             y_new = sol.y[:, -1].copy()
+            located = sol.status == 1
+            t_cut = self._check_guards(sol, t, evs, len(guards))
+            if t_cut is not None:
+                t_new = t_cut
+                y_new = np.asarray(sol.sol(t_cut), dtype=float).copy()
+                located = True
+                n_hidden += 1
             segments.append((t, t_new, sol.sol, cfg))
             n_restart += 1
             if n_restart > max_restarts:
@@ -731,7 +837,7 @@ class GearMesh:
             seg_new = inputs.segment(t_new) if t_new < stop_time else seg
             new = self._classify(y_new, *tau_now(t_new, seg_new))
             if new.key != cfg.key:
-                if sol.status != 1:
+                if not located:
                     n_missed += 1   # state changed without a located event (double crossing
                     #                 inside one step): kept, and counted in the result
                 events.append((t_new, y_new, cfg, new))
@@ -766,7 +872,8 @@ class GearMesh:
         # a grid row coinciding exactly with an event time is dropped (the event rows cover it)
         ev_times = {e[0] for e in ev_list}
         table = np.array([rows[i] for i in order if not (i < len(grid) and rows[i][0] in ev_times)])
-        res = Result(list(OUTPUT_NAMES), table, ev_list, n_restart, n_missed=n_missed)
+        res = Result(list(OUTPUT_NAMES), table, ev_list, n_restart, n_missed=n_missed,
+                     n_hidden=n_hidden)
         if energy:
             res.energy = {"segments": segments, "jumps": energy_jumps}
         return res
@@ -852,20 +959,69 @@ def grid_rows(names, table, output_interval):
 
 
 def statistics(names, table, output_interval, zA):
-    """mean_w_A_over_w_B = mean(w_A)/mean(w_B); rms_dte = sqrt(mean(dte^2)); max_dte, min_dte;
-    impacts_per_mesh_cycle = (rising edges of n_fwd > 0 plus rising edges of n_bwd > 0 between
-    consecutive grid rows) / (zA * (theta_A(end) - theta_A(0)) / (2 pi)).  All over the grid rows
-    of the whole scene."""
+    """Statistics of a scene, over the grid rows of the whole scene:
+
+    mean_w_A, mean_w_B        mean speeds [rad/s]
+    mean_w_A_over_w_B         mean(w_A) / mean(w_B)
+    rms_dte                   sqrt(mean(dte^2)) [m]
+    max_dte, min_dte          extrema of dte on the grid [m]
+    impacts_per_mesh_cycle    contact onsets: rising edges of (n_fwd > 0) plus rising edges of
+                              (n_bwd > 0) between consecutive grid rows, divided by the mesh
+                              cycles zA * |theta_A(end) - theta_A(0)| / (2 pi)
+    flank_switches_per_mesh_cycle
+                              changes of the flank last seen in contact (forward if n_fwd > 0,
+                              backward if n_bwd > 0; rows without contact keep the last one),
+                              per mesh cycle; unlike impacts it does not depend on whether a short
+                              bounce happens to be sampled
+    """
     r = grid_rows(names, table, output_interval)
     col = lambda n: r[:, names.index(n)]
     wA, wB, dte, thA = col("w_A"), col("w_B"), col("dte"), col("theta_A")
     nf, nb = col("n_fwd") > 0, col("n_bwd") > 0
     rises = int(np.sum(nf[1:] & ~nf[:-1]) + np.sum(nb[1:] & ~nb[:-1]))
+    last, switches = 0, 0
+    for f, b in zip(nf, nb):
+        side = 1 if f else (-1 if b else 0)
+        if side:
+            if last and side != last:
+                switches += 1
+            last = side
     cycles = zA * abs(thA[-1] - thA[0]) / (2 * math.pi)
+    per = (lambda n: n / cycles) if cycles > 0 else (lambda n: float("nan"))
     return {
+        "mean_w_A": float(np.mean(wA)),
+        "mean_w_B": float(np.mean(wB)),
         "mean_w_A_over_w_B": float(np.mean(wA) / np.mean(wB)),
         "rms_dte": float(np.sqrt(np.mean(dte ** 2))),
         "max_dte": float(np.max(dte)),
         "min_dte": float(np.min(dte)),
-        "impacts_per_mesh_cycle": rises / cycles if cycles > 0 else float("nan"),
+        "impacts_per_mesh_cycle": float(per(rises)),
+        "flank_switches_per_mesh_cycle": float(per(switches)),
     }
+
+
+def quasi_static_dte(start_values: dict, n_pairs: int) -> float:
+    """Forward penetration that carries the rigid-body line force at t = 0.
+
+    Rigid rolling (w_B = w_A rAb/rBb) gives the common acceleration
+    w_A' = (tau_A + (rAb/rBb)(tau_B - c_load w_B)) / (J_A + J_B (rAb/rBb)^2); the line force
+    is F = (tau_A - J_A w_A')/rAb, shared by n_pairs pairs; delta solves the Johnson law
+    (eq. 5.1) for N = F/(n_pairs width) with rho_A + rho_B = L + delta (fixed point).
+    Used for dte_start so that a scene starts without the large first transient."""
+    m = GearMesh(start_values)
+    p, g = m.p, m.g
+    i = g.rAb / g.rBb
+    wA = p["w_A_start"]
+    wB = wA * i
+    acc = (p["tau_A"] + i * (p["tau_B"] - p["c_load"] * wB)) / (p["J_A"] + p["J_B"] * i * i)
+    F = (p["tau_A"] - p["J_A"] * acc) / g.rAb
+    if F <= 0.0:
+        raise ValueError("no forward load at t = 0")
+    N = F / (n_pairs * p["width"])
+    d = johnson_delta(N, g.L, g.E_star)
+    for _ in range(50):
+        d_new = johnson_delta(N, g.L + d, g.E_star)
+        if d_new == d:
+            break
+        d = d_new
+    return d
