@@ -516,7 +516,7 @@ class GearMesh:
         def side(c, c1, c2, tol):
             if tie_aware:
                 return self._side(c, c1, c2, tol)
-            return c > tol
+            return c >= -tol     # ties count as inside (closed gate, delta >= 0)
 
         on_f = side(e, v, e2, self.TOL_DELTA)
         on_b = p["backward_contacts"] and side(-g.backlash - e, -v, -e2, self.TOL_DELTA)
@@ -568,6 +568,15 @@ class GearMesh:
         return parity * (1.0 if self._side(r, xi1, xi2, self.TOL_POS) else -1.0)
 
     def _classify(self, y, tauA, tauB):
+        """Contact state just after a restart.
+
+        Conditions that are not ties are decided by their values; ties (a function at zero
+        within rounding) by the sign of its first, else second time derivative, which needs the
+        accelerations, which depend on the contact state: iterate from the state in which every
+        tie counts as inside (the spec's closed gate s_A - delta >= s_a).  At an exact
+        equilibrium on a boundary (e.g. wheels at rest with f1's B tooth exactly at point a and
+        the load balanced) both "inside" and "outside" are self-consistent; this start selects
+        "inside"."""
         prelim = self._decide(y, (0.0, 0.0), tie_aware=False)
         acc = self._accel(y, prelim.kf, prelim.kb, tauA, tauB)
         cfg = self._decide(y, acc)
@@ -705,7 +714,9 @@ class GearMesh:
         F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
         for flank, k, Fn in forces:
             name = ("f" if flank == 1 else "b") + ("1" if k % g.m_c == 0 else "2")
-            F[name] += Fn
+            # reported >= 0: at an event instant the root finder may leave delta at -1e-21
+            # (force -1e-13 N) on the side that is about to stop carrying
+            F[name] += max(Fn, 0.0)
         thB = (uA - e) / g.rBb
         wB = (g.rAb * wA - v) / g.rBb
         return [t, thA, thB, wA, wB, e,
