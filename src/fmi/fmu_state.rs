@@ -1,11 +1,13 @@
-//! Serialized FMU states. Format (all integers little-endian):
-//! `"SGMSTATE"`, format version (u32), GUID length (u32) and bytes, payload length (u64),
-//! payload, FNV-1a 64 checksum of the payload (u64). The payload lists every value that
-//! determines how the instance continues, field by field; the geometry is recomputed from the
-//! parameters, which gives the same bits. A state from another format version or another
-//! build of the model (GUID), or a truncated or corrupted one, is rejected with a reason.
+//! The payload of SpurGearMesh's serialized FMU states. The envelope around it is
+//! fmi2_slave's (`fmi2_slave::fmu_state`; all integers little-endian): `"SGMSTATE"`, format
+//! version (u32), GUID length (u32) and bytes, payload length (u64), payload, FNV-1a 64
+//! checksum of the payload (u64); the payload starts with the FMI state (u64). What follows
+//! here lists every value that determines how the instance continues, field by field; the
+//! geometry is recomputed from the parameters, which gives the same bits. A state from another
+//! format version or another build of the model (GUID), or a truncated or corrupted one, is
+//! rejected with a reason.
 
-use super::instance::{FmiState, Snapshot};
+use super::instance::Snapshot;
 use crate::driver::dopri5::Dopri5;
 use crate::driver::simulation::Simulation;
 use crate::driver::trbdf2::TrBdf2;
@@ -13,76 +15,11 @@ use crate::driver::{Method, PendingEvent, Stats, WorkCap};
 use crate::model::contact::N_EVENTS;
 use crate::model::mesh::N_CONTROLLED;
 use crate::model::{Loads, State, NY};
-use crate::variables::{Causality, Inputs, Params, VarType, GUID, VARIABLES};
+use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
+use fmi2_slave::fmu_state::{Reader, Writer};
 
-const MAGIC: &[u8; 8] = b"SGMSTATE";
+/// The version of the payload below (the envelope's format version).
 pub const FORMAT_VERSION: u32 = 1;
-
-fn fnv64(data: &[u8]) -> u64 {
-    data.iter().fold(0xcbf29ce484222325u64, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x100000001b3)
-    })
-}
-
-#[derive(Default)]
-struct Writer(Vec<u8>);
-
-impl Writer {
-    fn u(&mut self, x: u64) {
-        self.0.extend_from_slice(&x.to_le_bytes());
-    }
-    fn f(&mut self, x: f64) {
-        self.u(x.to_bits());
-    }
-    fn b(&mut self, x: bool) {
-        self.u(x as u64);
-    }
-    fn fs(&mut self, xs: &[f64]) {
-        xs.iter().for_each(|&x| self.f(x));
-    }
-    fn opt(&mut self, x: Option<f64>) {
-        self.b(x.is_some());
-        self.f(x.unwrap_or(0.0));
-    }
-}
-
-struct Reader<'a> {
-    data: &'a [u8],
-    pos: usize,
-}
-
-impl Reader<'_> {
-    fn u(&mut self) -> Result<u64, String> {
-        let bytes = self
-            .data
-            .get(self.pos..self.pos + 8)
-            .ok_or("payload ends early")?;
-        self.pos += 8;
-        Ok(u64::from_le_bytes(bytes.try_into().expect("8 bytes")))
-    }
-    fn f(&mut self) -> Result<f64, String> {
-        Ok(f64::from_bits(self.u()?))
-    }
-    fn b(&mut self) -> Result<bool, String> {
-        match self.u()? {
-            0 => Ok(false),
-            1 => Ok(true),
-            x => Err(format!("a flag reads {x}")),
-        }
-    }
-    fn fs<const N: usize>(&mut self) -> Result<[f64; N], String> {
-        let mut a = [0.0; N];
-        for x in a.iter_mut() {
-            *x = self.f()?;
-        }
-        Ok(a)
-    }
-    fn opt(&mut self) -> Result<Option<f64>, String> {
-        let present = self.b()?;
-        let x = self.f()?;
-        Ok(present.then_some(x))
-    }
-}
 
 /// Parameters or inputs, in the table's order.
 fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
@@ -255,91 +192,31 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     Ok(s)
 }
 
-pub fn encode(s: &Snapshot) -> Vec<u8> {
-    let mut w = Writer::default();
-    w.u(s.state as u64);
-    write_vars(&mut w, Causality::Parameter, &s.params, &s.inputs);
-    write_vars(&mut w, Causality::Input, &s.params, &s.inputs);
+pub fn write(w: &mut Writer, s: &Snapshot) {
+    write_vars(w, Causality::Parameter, &s.params, &s.inputs);
+    write_vars(w, Causality::Input, &s.params, &s.inputs);
     w.f(s.start_time);
     w.opt(s.stop_time);
     w.opt(s.tolerance);
     w.b(s.sim.is_some());
     if let Some(sim) = &s.sim {
-        write_sim(&mut w, sim);
+        write_sim(w, sim);
     }
-    let payload = w.0;
-    let mut out = Vec::with_capacity(payload.len() + 80);
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&(GUID.len() as u32).to_le_bytes());
-    out.extend_from_slice(GUID.as_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&payload);
-    out.extend_from_slice(&fnv64(&payload).to_le_bytes());
-    out
 }
 
-pub fn decode(bytes: &[u8]) -> Result<Snapshot, String> {
-    let take = |pos: &mut usize, n: usize| -> Result<&[u8], String> {
-        let s = bytes
-            .get(*pos..*pos + n)
-            .ok_or_else(|| format!("truncated: {} bytes", bytes.len()))?;
-        *pos += n;
-        Ok(s)
-    };
-    let mut pos = 0;
-    if take(&mut pos, 8)? != MAGIC {
-        return Err("not a SpurGearMesh FMU state (bad magic bytes)".into());
-    }
-    let version = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4"));
-    if version != FORMAT_VERSION {
-        return Err(format!(
-            "state format version {version}; this FMU reads version {FORMAT_VERSION}"
-        ));
-    }
-    let glen = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4")) as usize;
-    let guid = String::from_utf8_lossy(take(&mut pos, glen.min(256))?).into_owned();
-    if guid != GUID {
-        return Err(format!(
-            "state of another model build (GUID {guid}, this FMU is {GUID})"
-        ));
-    }
-    let plen = u64::from_le_bytes(take(&mut pos, 8)?.try_into().expect("8")) as usize;
-    if bytes.len() != pos + plen.min(bytes.len()) + 8 || plen > bytes.len() {
-        return Err(format!(
-            "length mismatch: payload of {plen} bytes in a state of {} bytes",
-            bytes.len()
-        ));
-    }
-    let payload = take(&mut pos, plen)?;
-    let sum = u64::from_le_bytes(take(&mut pos, 8)?.try_into().expect("8"));
-    if sum != fnv64(payload) {
-        return Err("checksum mismatch: the state is corrupted".into());
-    }
-    let mut r = Reader {
-        data: payload,
-        pos: 0,
-    };
-    let state = FmiState::from_bits(r.u()?).ok_or("unknown FMI state")?;
+pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     let (mut params, mut inputs) = (Params::default(), Inputs::default());
-    read_vars(&mut r, Causality::Parameter, &mut params, &mut inputs)?;
-    read_vars(&mut r, Causality::Input, &mut params, &mut inputs)?;
+    read_vars(r, Causality::Parameter, &mut params, &mut inputs)?;
+    read_vars(r, Causality::Input, &mut params, &mut inputs)?;
     let start_time = r.f()?;
     let stop_time = r.opt()?;
     let tolerance = r.opt()?;
     let sim = if r.b()? {
-        Some(read_sim(&mut r, &params, &inputs, start_time)?)
+        Some(read_sim(r, &params, &inputs, start_time)?)
     } else {
         None
     };
-    if r.pos != payload.len() {
-        return Err(format!(
-            "{} unread bytes at the end of the payload",
-            payload.len() - r.pos
-        ));
-    }
     Ok(Snapshot {
-        state,
         params,
         inputs,
         start_time,
@@ -352,7 +229,21 @@ pub fn decode(bytes: &[u8]) -> Result<Snapshot, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fmi::instance::Snapshot;
+    use crate::fmi::instance::{FmiState, SpurGearMesh};
+    use fmi2_slave::instance::Saved;
+
+    /// A state in the envelope, as fmi2SerializeFMUstate writes it.
+    fn encode(state: FmiState, s: &Snapshot) -> Vec<u8> {
+        fmi2_slave::fmu_state::encode(&Saved {
+            state,
+            slave: SpurGearMesh::from(s.clone()),
+        })
+    }
+
+    fn decode(bytes: &[u8]) -> Result<(FmiState, Snapshot), String> {
+        let saved = fmi2_slave::fmu_state::decode::<SpurGearMesh>(bytes)?;
+        Ok((saved.state, saved.slave.snap))
+    }
 
     fn running(solver: i32) -> Snapshot {
         let mut s = Snapshot::fresh();
@@ -368,7 +259,6 @@ mod tests {
             tau_A: 100.0,
             tau_B: -3.0,
         };
-        s.state = FmiState::StepComplete;
         let mut sim = Simulation::new(&s.params, &s.inputs, 0.0, 1e-6).unwrap();
         sim.advance(3.3e-3, &mut |_, _| {}).unwrap();
         s.sim = Some(sim);
@@ -379,15 +269,17 @@ mod tests {
     fn round_trip_is_exact_for_both_methods() {
         for solver in [1, 2] {
             let s = running(solver);
-            assert_eq!(decode(&encode(&s)).unwrap(), s);
+            let done = FmiState::StepComplete;
+            assert_eq!(decode(&encode(done, &s)).unwrap(), (done, s));
         }
         let fresh = Snapshot::fresh();
-        assert_eq!(decode(&encode(&fresh)).unwrap(), fresh);
+        let inst = FmiState::Instantiated;
+        assert_eq!(decode(&encode(inst, &fresh)).unwrap(), (inst, fresh));
     }
 
     #[test]
     fn damaged_states_are_rejected_with_a_reason() {
-        let bytes = encode(&running(1));
+        let bytes = encode(FmiState::StepComplete, &running(1));
         for n in [0, 7, 20, bytes.len() / 2, bytes.len() - 1] {
             assert!(decode(&bytes[..n]).is_err(), "truncated to {n}");
         }

@@ -1,61 +1,29 @@
-//! One FMU instance: the FMI 2.0 Co-Simulation state machine, parameter and input handling,
-//! and stepping. Every exported function goes through `Instance::call`, which checks the
-//! state in one place; a failing call leaves the values the instance had before it.
+//! SpurGearMesh as an `fmi2_slave::Slave`: parameter and input handling, initialization and
+//! stepping. The FMI state machine around it (state checks, panic guard, failure logging) is
+//! `fmi2_slave::Instance`, whose names this module re-exports. A failing call leaves the values
+//! the instance had before it.
 
-use super::logging::{Category, Logger};
-use super::Status;
+use super::fmu_state;
 use crate::driver::simulation::Simulation;
 use crate::driver::DriverError;
 use crate::model::geometry;
 use crate::model::Loads;
-use crate::variables::{Causality, Inputs, Outputs, Params, Var, VarType, Variability};
-use std::collections::HashSet;
+use crate::variables::{
+    Causality, Inputs, Outputs, Params, Var, VarType, Variability, GUID, LOG_CATEGORIES,
+    MODEL_IDENTIFIER,
+};
+use fmi2_slave::fmu_state::{Reader, Writer};
+use fmi2_slave::logging::LOG_EVENTS;
+use fmi2_slave::{Boolean, Logger, Slave, Status, ValueReference};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FmiState {
-    Instantiated = 1,
-    InitializationMode = 2,
-    StepComplete = 4,
-    StepFailed = 8,
-    Terminated = 16,
-    Error = 32,
-}
+pub use fmi2_slave::instance::{allowed, error, CallResult, Failure, FmiState};
 
-impl FmiState {
-    pub fn from_bits(b: u64) -> Option<FmiState> {
-        use FmiState::*;
-        [
-            Instantiated,
-            InitializationMode,
-            StepComplete,
-            StepFailed,
-            Terminated,
-            Error,
-        ]
-        .into_iter()
-        .find(|s| *s as u64 == b)
-    }
-}
-
-/// Sets of states in which a function may be called (FMI 2.0 standard, section 4.2.4).
-pub mod allowed {
-    use super::FmiState::*;
-    pub const INST: u32 = Instantiated as u32;
-    pub const INIT: u32 = InitializationMode as u32;
-    pub const DONE: u32 = StepComplete as u32;
-    pub const FAIL: u32 = StepFailed as u32;
-    pub const TERM: u32 = Terminated as u32;
-    pub const ERR: u32 = Error as u32;
-    pub const ANY: u32 = INST | INIT | DONE | FAIL | TERM | ERR;
-    pub const GET: u32 = INIT | DONE | FAIL | TERM | ERR;
-    pub const SET: u32 = INST | INIT | DONE;
-    pub const STATUS: u32 = DONE | FAIL | TERM | ERR;
-}
+/// SpurGearMesh's own debug category: integrator statistics.
+pub const LOG_SOLVER: &str = "logSolver";
 
 /// What an FMU state holds: everything that determines how the instance continues.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Snapshot {
-    pub state: FmiState,
     pub params: Params,
     pub inputs: Inputs,
     pub start_time: f64,
@@ -64,37 +32,17 @@ pub struct Snapshot {
     pub sim: Option<Simulation>,
 }
 
-pub struct Instance {
-    pub(crate) magic: u64,
-    pub log: Logger,
+/// The model behind an FMU instance (the state machine around it is fmi2_slave's `Instance`).
+#[derive(Clone, Debug)]
+pub struct SpurGearMesh {
     pub snap: Snapshot,
     /// Outputs at the current time, computed on demand.
     outputs: Option<Outputs>,
-    /// FMU states handed out by this instance (owned here, freed by fmi2FreeFMUstate or at free).
-    pub(crate) fmu_states: HashSet<usize>,
-}
-
-pub const MAGIC: u64 = 0x5350_5552_4745_4152; // "SPURGEAR"
-
-/// A function's failure: the status to return and the message to log.
-pub struct Failure {
-    pub status: Status,
-    pub message: String,
-}
-
-pub type CallResult = Result<Status, Failure>;
-
-pub fn error(message: String) -> Failure {
-    Failure {
-        status: Status::Error,
-        message,
-    }
 }
 
 impl Snapshot {
     pub fn fresh() -> Snapshot {
         Snapshot {
-            state: FmiState::Instantiated,
             params: Params::default(),
             inputs: Inputs::default(),
             start_time: 0.0,
@@ -105,53 +53,205 @@ impl Snapshot {
     }
 }
 
-impl Instance {
-    pub fn new(log: Logger) -> Instance {
-        Instance {
-            magic: MAGIC,
-            log,
-            snap: Snapshot::fresh(),
-            outputs: None,
-            fmu_states: HashSet::new(),
-        }
+impl Slave for SpurGearMesh {
+    const MODEL_NAME: &'static str = MODEL_IDENTIFIER;
+    const LOG_CATEGORIES: &'static [&'static str] = LOG_CATEGORIES;
+    const STATE_MAGIC: [u8; 8] = *b"SGMSTATE";
+    const STATE_FORMAT_VERSION: u32 = fmu_state::FORMAT_VERSION;
+
+    fn guid() -> &'static str {
+        GUID
     }
 
-    /// Runs one FMI function: checks the state, catches panics, logs failures.
-    pub fn call(
+    fn fresh() -> SpurGearMesh {
+        SpurGearMesh::from(Snapshot::fresh())
+    }
+
+    fn setup_experiment(
         &mut self,
-        func: &str,
-        states: u32,
-        body: impl FnOnce(&mut Instance) -> CallResult,
-    ) -> Status {
-        if states & self.snap.state as u32 == 0 {
-            self.log.log(
-                Status::Error,
-                Category::Error,
-                &format!("{func}: not allowed in state {:?}", self.snap.state),
-            );
-            return Status::Error;
-        }
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| body(self)));
-        let failure = match result {
-            Ok(Ok(status)) => return status,
-            Ok(Err(f)) => f,
-            Err(_) => {
-                error("internal error (panic caught at the C boundary); reset the instance".into())
+        tol: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Result<(), Failure> {
+        if let Some(t) = tol {
+            if !(t >= 1e-14 && t <= 0.1) {
+                return Err(error(format!("tolerance = {t}: must lie in [1e-14, 0.1]")));
             }
-        };
-        self.log.log(
-            failure.status,
-            Category::for_status(failure.status),
-            &format!("{func}: {}", failure.message),
-        );
-        match failure.status {
-            Status::Error | Status::Fatal => self.snap.state = FmiState::Error,
-            Status::Discard => self.snap.state = FmiState::StepFailed,
-            _ => {}
         }
-        failure.status
+        fmi2_slave::check_experiment_times(start, stop)?;
+        self.snap.tolerance = tol;
+        self.snap.start_time = start;
+        self.snap.stop_time = stop;
+        self.snap.sim = None;
+        self.outputs = None;
+        Ok(())
     }
 
+    fn exit_initialization(&mut self) -> Result<(), Failure> {
+        self.build()?;
+        self.outputs()?;
+        Ok(())
+    }
+
+    fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure> {
+        let v = lookup(vr, VarType::Real)?;
+        self.value(
+            v,
+            |p| p.get_real(v),
+            |i| i.get_real(v),
+            |o| o.get_real(v),
+            |c| c.get_real(v),
+        )
+    }
+
+    fn get_integer(&mut self, vr: ValueReference) -> Result<i32, Failure> {
+        let v = lookup(vr, VarType::Integer)?;
+        self.value(
+            v,
+            |p| p.get_integer(v),
+            |i| i.get_integer(v),
+            |o| o.get_integer(v),
+            |c| c.get_integer(v),
+        )
+    }
+
+    fn get_boolean(&mut self, vr: ValueReference) -> Result<bool, Failure> {
+        let v = lookup(vr, VarType::Boolean)?;
+        self.value(
+            v,
+            |p| p.get_boolean(v),
+            |i| i.get_boolean(v),
+            |o| o.get_boolean(v),
+            |c| c.get_boolean(v),
+        )
+    }
+
+    fn set_real(&mut self, vrs: &[u32], values: &[f64], running: bool) -> Result<(), Failure> {
+        self.set_many(
+            VarType::Real,
+            vrs,
+            values,
+            running,
+            f64::is_finite,
+            |p, inp, v, x| {
+                let _ = p.set_real(v, x) || inp.set_real(v, x);
+            },
+        )
+    }
+
+    fn set_integer(&mut self, vrs: &[u32], values: &[i32], running: bool) -> Result<(), Failure> {
+        self.set_many(
+            VarType::Integer,
+            vrs,
+            values,
+            running,
+            |_| true,
+            |p, _, v, x| {
+                p.set_integer(v, x);
+            },
+        )
+    }
+
+    fn set_boolean(
+        &mut self,
+        vrs: &[u32],
+        values: &[Boolean],
+        running: bool,
+    ) -> Result<(), Failure> {
+        self.set_many(
+            VarType::Boolean,
+            vrs,
+            values,
+            running,
+            |_| true,
+            |p, _, v, x| {
+                p.set_boolean(v, x != 0);
+            },
+        )
+    }
+
+    fn do_step(&mut self, current: f64, h: f64, log: &Logger) -> Result<(), Failure> {
+        let t = self.time();
+        let t_end = current + h;
+        if let Some(stop) = self.snap.stop_time {
+            if t_end > stop * (1.0 + 1e-12) + 1e-12 {
+                return Err(error(format!(
+                    "step to {t_end} goes past the stopTime {stop} of fmi2SetupExperiment"
+                )));
+            }
+        }
+        let debug_events = log.enabled(LOG_EVENTS);
+        let sim = self.snap.sim.as_mut().expect("initialized in StepComplete");
+        let before = sim.clone();
+        let mut events = Vec::new();
+        let result = sim.advance(t_end, &mut |te, r| {
+            if debug_events {
+                events.push(format!("t = {te:.12} s: {}", r.what));
+            }
+        });
+        for e in &events {
+            log.log(Status::Ok, LOG_EVENTS, e);
+        }
+        self.outputs = None;
+        let failure = match result {
+            Ok(()) => match self.outputs() {
+                Ok(o) if outputs_finite(&o) => None,
+                Ok(_) => Some(error(format!(
+                    "the step to {t_end} gave a non-finite output; state kept at t = {t}"
+                ))),
+                Err(f) => Some(f),
+            },
+            Err(e @ DriverError::Law { .. }) => Some(error(format!("{e}; state kept at t = {t}"))),
+            Err(e) => Some(Failure {
+                status: Status::Discard,
+                message: format!("{e}; state kept at t = {t}"),
+            }),
+        };
+        if let Some(f) = failure {
+            self.snap.sim = Some(before);
+            self.outputs = None;
+            return Err(f);
+        }
+        if log.enabled(LOG_SOLVER) {
+            let s = &self.snap.sim.as_ref().expect("stepped").driver.stats;
+            log.log(
+                Status::Ok,
+                LOG_SOLVER,
+                &format!(
+                    "t = {t_end}: {} steps, {} rejected, {} rhs evaluations, {} Jacobians, {} factorizations, {} events so far",
+                    s.steps, s.rejected, s.rhs_evals, s.jac_evals, s.factorizations, s.events
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    fn time(&self) -> f64 {
+        self.snap
+            .sim
+            .as_ref()
+            .map_or(self.snap.start_time, |s| s.time())
+    }
+
+    fn encode(&self, w: &mut Writer) {
+        fmu_state::write(w, &self.snap)
+    }
+
+    fn decode(r: &mut Reader) -> Result<SpurGearMesh, String> {
+        fmu_state::read(r).map(SpurGearMesh::from)
+    }
+}
+
+impl From<Snapshot> for SpurGearMesh {
+    fn from(snap: Snapshot) -> SpurGearMesh {
+        SpurGearMesh {
+            snap,
+            outputs: None,
+        }
+    }
+}
+
+impl SpurGearMesh {
     fn tolerance(&self) -> f64 {
         self.snap.tolerance.unwrap_or(self.snap.params.rel_tol)
     }
@@ -193,97 +293,6 @@ impl Instance {
         Ok(o)
     }
 
-    pub fn setup_experiment(
-        &mut self,
-        tol: Option<f64>,
-        start: f64,
-        stop: Option<f64>,
-    ) -> CallResult {
-        if let Some(t) = tol {
-            if !(t >= 1e-14 && t <= 0.1) {
-                return Err(error(format!("tolerance = {t}: must lie in [1e-14, 0.1]")));
-            }
-        }
-        if !start.is_finite() {
-            return Err(error(format!("startTime = {start}: must be finite")));
-        }
-        if let Some(s) = stop {
-            if !(s >= start) || !s.is_finite() {
-                return Err(error(format!(
-                    "stopTime = {s}: must be finite and not before startTime = {start}"
-                )));
-            }
-        }
-        self.snap.tolerance = tol;
-        self.snap.start_time = start;
-        self.snap.stop_time = stop;
-        self.snap.sim = None;
-        self.outputs = None;
-        Ok(Status::Ok)
-    }
-
-    pub fn exit_initialization(&mut self) -> CallResult {
-        self.build()?;
-        self.outputs()?;
-        self.snap.state = FmiState::StepComplete;
-        Ok(Status::Ok)
-    }
-
-    pub fn reset(&mut self) {
-        self.snap = Snapshot::fresh();
-        self.outputs = None;
-    }
-
-    pub fn restore(&mut self, s: &Snapshot) {
-        self.snap = s.clone();
-        self.outputs = None;
-    }
-
-    fn lookup(&self, vr: u32, ty: VarType) -> Result<Var, Failure> {
-        let v = Var::from_vr(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
-        let info = v.info();
-        if info.ty != ty {
-            return Err(error(format!(
-                "{} (value reference {vr}) is {:?}, not {ty:?}",
-                info.name, info.ty
-            )));
-        }
-        Ok(v)
-    }
-
-    pub fn get_real(&mut self, vr: u32) -> Result<f64, Failure> {
-        let v = self.lookup(vr, VarType::Real)?;
-        self.value(
-            v,
-            |p| p.get_real(v),
-            |i| i.get_real(v),
-            |o| o.get_real(v),
-            |c| c.get_real(v),
-        )
-    }
-
-    pub fn get_integer(&mut self, vr: u32) -> Result<i32, Failure> {
-        let v = self.lookup(vr, VarType::Integer)?;
-        self.value(
-            v,
-            |p| p.get_integer(v),
-            |i| i.get_integer(v),
-            |o| o.get_integer(v),
-            |c| c.get_integer(v),
-        )
-    }
-
-    pub fn get_boolean(&mut self, vr: u32) -> Result<bool, Failure> {
-        let v = self.lookup(vr, VarType::Boolean)?;
-        self.value(
-            v,
-            |p| p.get_boolean(v),
-            |i| i.get_boolean(v),
-            |o| o.get_boolean(v),
-            |c| c.get_boolean(v),
-        )
-    }
-
     fn value<T>(
         &mut self,
         v: Var,
@@ -301,36 +310,20 @@ impl Instance {
         Ok(got.expect("the generated table gives every variable a getter of its type"))
     }
 
-    /// Checks that a variable may be set now to the value shown (for the message).
-    fn settable(&self, v: Var, shown: &dyn std::fmt::Display) -> Result<(), Failure> {
-        let info = v.info();
-        let running = self.snap.state == FmiState::StepComplete;
-        match (info.causality, info.variability) {
-            (Causality::Output | Causality::CalculatedParameter, _) => Err(error(format!(
-                "{} = {shown}: {} is a {:?}, it cannot be set",
-                info.name, info.name, info.causality
-            ))),
-            (Causality::Parameter, Variability::Fixed) if running => Err(error(format!(
-                "{} = {shown}: {} is a fixed parameter, it cannot be set after initialization",
-                info.name, info.name
-            ))),
-            _ => Ok(()),
-        }
-    }
-
     /// Sets several variables at once: all are checked before any is applied.
-    pub fn set_many<T: Copy + std::fmt::Display>(
+    fn set_many<T: Copy + std::fmt::Display>(
         &mut self,
         ty: VarType,
         vrs: &[u32],
         values: &[T],
+        running: bool,
         check: impl Fn(T) -> bool,
         apply: impl Fn(&mut Params, &mut Inputs, Var, T),
-    ) -> CallResult {
+    ) -> Result<(), Failure> {
         let (mut params, mut inputs) = (self.snap.params.clone(), self.snap.inputs.clone());
         for (&vr, &x) in vrs.iter().zip(values) {
-            let v = self.lookup(vr, ty)?;
-            self.settable(v, &x)?;
+            let v = lookup(vr, ty)?;
+            settable(v, &x, running)?;
             if !check(x) {
                 return Err(error(format!(
                     "{} = {x}: the value must be finite",
@@ -343,98 +336,44 @@ impl Instance {
         self.snap.params = params;
         self.snap.inputs = inputs;
         self.outputs = None;
-        match self.snap.state {
-            FmiState::StepComplete => {
-                let loads = self.loads();
-                if let Some(sim) = self.snap.sim.as_mut() {
-                    sim.set_loads(loads);
-                }
+        if running {
+            let loads = self.loads();
+            if let Some(sim) = self.snap.sim.as_mut() {
+                sim.set_loads(loads);
             }
+        } else {
             // Before the end of initialization the simulation is rebuilt from the parameters.
-            _ => self.snap.sim = None,
+            self.snap.sim = None;
         }
-        Ok(Status::Ok)
+        Ok(())
     }
+}
 
-    pub fn do_step(&mut self, current: f64, h: f64) -> CallResult {
-        let t = self
-            .snap
-            .sim
-            .as_ref()
-            .map_or(self.snap.start_time, |s| s.time());
-        if !current.is_finite() || !h.is_finite() {
-            return Err(error(format!("currentCommunicationPoint = {current}, communicationStepSize = {h}: must be finite")));
-        }
-        if !(h > 0.0) {
-            return Err(error(format!(
-                "communicationStepSize = {h}: must be positive"
-            )));
-        }
-        // Masters accumulate time in floating point; a nanosecond-scale mismatch is rounding.
-        if (current - t).abs() > 1e-9 * t.abs().max(1.0) {
-            return Err(error(format!(
-                "currentCommunicationPoint = {current} does not match the FMU's time {t}"
-            )));
-        }
-        let t_end = current + h;
-        if let Some(stop) = self.snap.stop_time {
-            if t_end > stop * (1.0 + 1e-12) + 1e-12 {
-                return Err(error(format!(
-                    "step to {t_end} goes past the stopTime {stop} of fmi2SetupExperiment"
-                )));
-            }
-        }
-        let debug_events = self.log.enabled(Category::Events);
-        let sim = self.snap.sim.as_mut().expect("initialized in StepComplete");
-        let before = sim.clone();
-        let mut events = Vec::new();
-        let result = sim.advance(t_end, &mut |te, r| {
-            if debug_events {
-                events.push(format!("t = {te:.12} s: {}", r.what));
-            }
-        });
-        for e in &events {
-            self.log.log(Status::Ok, Category::Events, e);
-        }
-        self.outputs = None;
-        let failure = match result {
-            Ok(()) => match self.outputs() {
-                Ok(o) if outputs_finite(&o) => None,
-                Ok(_) => Some(error(format!(
-                    "the step to {t_end} gave a non-finite output; state kept at t = {t}"
-                ))),
-                Err(f) => Some(f),
-            },
-            Err(e @ DriverError::Law { .. }) => Some(error(format!("{e}; state kept at t = {t}"))),
-            Err(e) => Some(Failure {
-                status: Status::Discard,
-                message: format!("{e}; state kept at t = {t}"),
-            }),
-        };
-        if let Some(f) = failure {
-            self.snap.sim = Some(before);
-            self.outputs = None;
-            return Err(f);
-        }
-        if self.log.enabled(Category::Solver) {
-            let s = &self.snap.sim.as_ref().expect("stepped").driver.stats;
-            self.log.log(
-                Status::Ok,
-                Category::Solver,
-                &format!(
-                    "t = {t_end}: {} steps, {} rejected, {} rhs evaluations, {} Jacobians, {} factorizations, {} events so far",
-                    s.steps, s.rejected, s.rhs_evals, s.jac_evals, s.factorizations, s.events
-                ),
-            );
-        }
-        Ok(Status::Ok)
+fn lookup(vr: u32, ty: VarType) -> Result<Var, Failure> {
+    let v = Var::from_vr(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
+    let info = v.info();
+    if info.ty != ty {
+        return Err(error(format!(
+            "{} (value reference {vr}) is {:?}, not {ty:?}",
+            info.name, info.ty
+        )));
     }
+    Ok(v)
+}
 
-    pub fn time(&self) -> f64 {
-        self.snap
-            .sim
-            .as_ref()
-            .map_or(self.snap.start_time, |s| s.time())
+/// Checks that a variable may be set now to the value shown (for the message).
+fn settable(v: Var, shown: &dyn std::fmt::Display, running: bool) -> Result<(), Failure> {
+    let info = v.info();
+    match (info.causality, info.variability) {
+        (Causality::Output | Causality::CalculatedParameter, _) => Err(error(format!(
+            "{} = {shown}: {} is a {:?}, it cannot be set",
+            info.name, info.name, info.causality
+        ))),
+        (Causality::Parameter, Variability::Fixed) if running => Err(error(format!(
+            "{} = {shown}: {} is a fixed parameter, it cannot be set after initialization",
+            info.name, info.name
+        ))),
+        _ => Ok(()),
     }
 }
 

@@ -1,0 +1,289 @@
+//! `export_fmi2!`: the exported C functions of FMI 2.0.
+
+/// Defines, in the invoking module, every function of FMI 2.0 (`fmi2Functions.h`: 44 functions)
+/// as `#[no_mangle] extern "C"` for the model type given, each calling its generic body in
+/// `fmi2_slave::ffi`. Invoke it once per FMU binary (a cdylib exports exactly one model):
+///
+/// ```ignore
+/// fmi2_slave::export_fmi2!(crate::fmi::instance::GearMesh);
+/// ```
+///
+/// The signatures are those of the standard's headers (checked by tests/python/test_abi.py).
+#[macro_export]
+macro_rules! export_fmi2 {
+    // fmi2Get* and fmi2Set* of Real, Integer, Boolean: (component, vr, n, value array).
+    (@values $slave:ty: $($name:ident($value:ty) => $body:ident;)*) => {$(
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(
+            c: $crate::Component,
+            vr: *const $crate::ValueReference,
+            n: usize,
+            value: $value,
+        ) -> $crate::Status {
+            $crate::ffi::$body::<$slave>(c, vr, n, value)
+        }
+    )*};
+
+    // fmi2Get*Status: (component, status kind, value).
+    (@status $slave:ty: $($name:ident($value:ty) => $body:ident;)*) => {$(
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(
+            c: $crate::Component,
+            kind: $crate::StatusKind,
+            value: $value,
+        ) -> $crate::Status {
+            $crate::ffi::$body::<$slave>(c, kind, value)
+        }
+    )*};
+
+    (@model_exchange $slave:ty: $($name:ident($($arg:ident: $t:ty),*);)*) => {$(
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(c: $crate::Component $(, $arg: $t)*) -> $crate::Status {
+            $(let _ = $arg;)*
+            $crate::ffi::model_exchange::<$slave>(c, stringify!($name))
+        }
+    )*};
+
+    ($slave:ty) => {
+        #[no_mangle]
+        pub extern "C" fn fmi2GetTypesPlatform() -> *const ::std::os::raw::c_char {
+            $crate::ffi::get_types_platform()
+        }
+
+        #[no_mangle]
+        pub extern "C" fn fmi2GetVersion() -> *const ::std::os::raw::c_char {
+            $crate::ffi::get_version()
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2Instantiate(
+            instance_name: *const ::std::os::raw::c_char,
+            fmu_type: $crate::Type,
+            guid: *const ::std::os::raw::c_char,
+            _resource_location: *const ::std::os::raw::c_char,
+            functions: *const $crate::CallbackFunctions,
+            _visible: $crate::Boolean,
+            logging_on: $crate::Boolean,
+        ) -> $crate::Component {
+            $crate::ffi::instantiate::<$slave>(instance_name, fmu_type, guid, functions, logging_on)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2FreeInstance(c: $crate::Component) {
+            $crate::ffi::free_instance::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetDebugLogging(
+            c: $crate::Component,
+            on: $crate::Boolean,
+            n: usize,
+            categories: *const *const ::std::os::raw::c_char,
+        ) -> $crate::Status {
+            $crate::ffi::set_debug_logging::<$slave>(c, on, n, categories)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetupExperiment(
+            c: $crate::Component,
+            tolerance_defined: $crate::Boolean,
+            tolerance: f64,
+            start_time: f64,
+            stop_time_defined: $crate::Boolean,
+            stop_time: f64,
+        ) -> $crate::Status {
+            $crate::ffi::setup_experiment::<$slave>(
+                c,
+                tolerance_defined,
+                tolerance,
+                start_time,
+                stop_time_defined,
+                stop_time,
+            )
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2EnterInitializationMode(c: $crate::Component) -> $crate::Status {
+            $crate::ffi::enter_initialization_mode::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2ExitInitializationMode(c: $crate::Component) -> $crate::Status {
+            $crate::ffi::exit_initialization_mode::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2Terminate(c: $crate::Component) -> $crate::Status {
+            $crate::ffi::terminate::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2Reset(c: $crate::Component) -> $crate::Status {
+            $crate::ffi::reset::<$slave>(c)
+        }
+
+        $crate::export_fmi2!(@values $slave:
+            fmi2GetReal(*mut f64) => get_real;
+            fmi2GetInteger(*mut ::std::os::raw::c_int) => get_integer;
+            fmi2GetBoolean(*mut $crate::Boolean) => get_boolean;
+            fmi2SetReal(*const f64) => set_real;
+            fmi2SetInteger(*const ::std::os::raw::c_int) => set_integer;
+            fmi2SetBoolean(*const $crate::Boolean) => set_boolean;
+        );
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetString(
+            c: $crate::Component,
+            vr: *const $crate::ValueReference,
+            n: usize,
+            _value: *mut *const ::std::os::raw::c_char,
+        ) -> $crate::Status {
+            $crate::ffi::no_strings::<$slave>(c, "fmi2GetString", $crate::instance::allowed::GET, vr, n)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetString(
+            c: $crate::Component,
+            vr: *const $crate::ValueReference,
+            n: usize,
+            _value: *const *const ::std::os::raw::c_char,
+        ) -> $crate::Status {
+            $crate::ffi::no_strings::<$slave>(c, "fmi2SetString", $crate::instance::allowed::SET, vr, n)
+        }
+
+        // ---- FMU states ----------------------------------------------------------------------
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetFMUstate(
+            c: $crate::Component,
+            state: *mut $crate::FmuState,
+        ) -> $crate::Status {
+            $crate::ffi::get_fmu_state::<$slave>(c, state)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetFMUstate(
+            c: $crate::Component,
+            state: $crate::FmuState,
+        ) -> $crate::Status {
+            $crate::ffi::set_fmu_state::<$slave>(c, state)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2FreeFMUstate(
+            c: $crate::Component,
+            state: *mut $crate::FmuState,
+        ) -> $crate::Status {
+            $crate::ffi::free_fmu_state::<$slave>(c, state)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
+            c: $crate::Component,
+            state: $crate::FmuState,
+            size: *mut usize,
+        ) -> $crate::Status {
+            $crate::ffi::serialized_fmu_state_size::<$slave>(c, state, size)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SerializeFMUstate(
+            c: $crate::Component,
+            state: $crate::FmuState,
+            buf: *mut ::std::os::raw::c_char,
+            size: usize,
+        ) -> $crate::Status {
+            $crate::ffi::serialize_fmu_state::<$slave>(c, state, buf, size)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
+            c: $crate::Component,
+            buf: *const ::std::os::raw::c_char,
+            size: usize,
+            state: *mut $crate::FmuState,
+        ) -> $crate::Status {
+            $crate::ffi::deserialize_fmu_state::<$slave>(c, buf, size, state)
+        }
+
+        // ---- Co-Simulation -------------------------------------------------------------------
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2DoStep(
+            c: $crate::Component,
+            current: f64,
+            h: f64,
+            _no_set_prior: $crate::Boolean,
+        ) -> $crate::Status {
+            $crate::ffi::do_step::<$slave>(c, current, h)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2CancelStep(c: $crate::Component) -> $crate::Status {
+            $crate::ffi::cancel_step::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
+            c: $crate::Component,
+            _vr: *const $crate::ValueReference,
+            _n: usize,
+            _order: *const ::std::os::raw::c_int,
+            _value: *const f64,
+        ) -> $crate::Status {
+            $crate::ffi::set_real_input_derivatives::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
+            c: $crate::Component,
+            _vr: *const $crate::ValueReference,
+            _n: usize,
+            _order: *const ::std::os::raw::c_int,
+            _value: *mut f64,
+        ) -> $crate::Status {
+            $crate::ffi::get_real_output_derivatives::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
+            c: $crate::Component,
+            _unknown: *const $crate::ValueReference,
+            _nu: usize,
+            _known: *const $crate::ValueReference,
+            _nk: usize,
+            _dv_known: *const f64,
+            _dv_unknown: *mut f64,
+        ) -> $crate::Status {
+            $crate::ffi::get_directional_derivative::<$slave>(c)
+        }
+
+        $crate::export_fmi2!(@status $slave:
+            fmi2GetStatus(*mut $crate::Status) => get_status;
+            fmi2GetRealStatus(*mut f64) => get_real_status;
+            fmi2GetIntegerStatus(*mut ::std::os::raw::c_int) => get_integer_status;
+            fmi2GetBooleanStatus(*mut $crate::Boolean) => get_boolean_status;
+            fmi2GetStringStatus(*mut *const ::std::os::raw::c_char) => get_string_status;
+        );
+
+        // ---- Model Exchange: not supported ---------------------------------------------------
+
+        $crate::export_fmi2!(@model_exchange $slave:
+            fmi2EnterEventMode();
+            fmi2NewDiscreteStates(event_info: *mut $crate::EventInfo);
+            fmi2EnterContinuousTimeMode();
+            fmi2CompletedIntegratorStep(
+                no_set_prior: $crate::Boolean,
+                enter_event_mode: *mut $crate::Boolean,
+                terminate: *mut $crate::Boolean
+            );
+            fmi2SetTime(time: f64);
+            fmi2SetContinuousStates(x: *const f64, nx: usize);
+            fmi2GetDerivatives(derivatives: *mut f64, nx: usize);
+            fmi2GetEventIndicators(indicators: *mut f64, ni: usize);
+            fmi2GetContinuousStates(x: *mut f64, nx: usize);
+            fmi2GetNominalsOfContinuousStates(x_nominal: *mut f64, nx: usize);
+        );
+    };
+
+}

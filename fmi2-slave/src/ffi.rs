@@ -1,0 +1,587 @@
+//! The bodies of the fmi2* functions, generic over the model; `export_fmi2!` defines the
+//! exported functions that call them. Each one finds its instance, states which FMI states it
+//! may be called in, and hands a closure to `Instance::call` (state check, panic guard, error
+//! log). The Model Exchange functions answer fmi2Error.
+//!
+//! # Safety
+//! Every function takes the arguments of its fmi2 counterpart as the master passes them: the
+//! component is checked (null, or not a live instance of this model: fmi2Error), array
+//! arguments are checked for null with a count, and otherwise the pointers must be as the
+//! standard specifies.
+
+#![allow(clippy::missing_safety_doc)]
+
+use crate::instance::{allowed, error, CallResult, Failure, FmiState, Instance, Saved, MAGIC};
+use crate::logging::{Logger, LOG_STATUS_DISCARD};
+use crate::{fmu_state, Slave};
+use crate::{
+    Boolean, CallbackFunctions, Component, FmuState, Status, StatusKind, Type, ValueReference,
+};
+use crate::{DO_STEP_STATUS, LAST_SUCCESSFUL_TIME, PENDING_STATUS, TERMINATED, TYPE_CO_SIMULATION};
+use std::ffi::CStr;
+use std::os::raw::{c_char, c_int};
+
+/// More values than any master can mean; guards against garbage counts.
+const MAX_VALUES: usize = 1 << 20;
+
+unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
+    if c.is_null() {
+        return None;
+    }
+    let i = &mut *(c as *mut Instance<S>);
+    (i.magic == MAGIC).then_some(i)
+}
+
+fn with<S: Slave>(
+    c: Component,
+    func: &str,
+    states: u32,
+    body: impl FnOnce(&mut Instance<S>) -> CallResult,
+) -> Status {
+    match unsafe { instance::<S>(c) } {
+        Some(i) => i.call(func, states, body),
+        None => Status::Error,
+    }
+}
+
+/// A C array argument: null is allowed only for n = 0.
+unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Failure> {
+    if n == 0 {
+        Ok(&[])
+    } else if p.is_null() || n > MAX_VALUES {
+        Err(error(format!(
+            "{what}: null pointer or implausible count {n}"
+        )))
+    } else {
+        Ok(std::slice::from_raw_parts(p, n))
+    }
+}
+
+unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> Result<&'a mut [T], Failure> {
+    if n == 0 {
+        Ok(&mut [])
+    } else if p.is_null() || n > MAX_VALUES {
+        Err(error(format!(
+            "{what}: null pointer or implausible count {n}"
+        )))
+    } else {
+        Ok(std::slice::from_raw_parts_mut(p, n))
+    }
+}
+
+unsafe fn text(p: *const c_char) -> Option<String> {
+    (!p.is_null()).then(|| CStr::from_ptr(p).to_string_lossy().into_owned())
+}
+
+pub fn get_types_platform() -> *const c_char {
+    c"default".as_ptr()
+}
+
+pub fn get_version() -> *const c_char {
+    c"2.0".as_ptr()
+}
+
+pub unsafe fn instantiate<S: Slave>(
+    instance_name: *const c_char,
+    fmu_type: Type,
+    guid: *const c_char,
+    functions: *const CallbackFunctions,
+    logging_on: Boolean,
+) -> Component {
+    let built = std::panic::catch_unwind(|| {
+        let f = functions.as_ref()?;
+        let name = text(instance_name).unwrap_or_default();
+        let log = Logger::new(
+            f.logger,
+            f.component_environment,
+            &name,
+            S::LOG_CATEGORIES,
+            logging_on != 0,
+        );
+        let fail = |msg: String| {
+            log.log_status(Status::Error, &format!("fmi2Instantiate: {msg}"));
+            None
+        };
+        if instance_name.is_null() || name.is_empty() {
+            return fail("instanceName must be a non-empty string".into());
+        }
+        if fmu_type != TYPE_CO_SIMULATION {
+            return fail(format!(
+                "fmuType = {fmu_type}: {} is a Co-Simulation FMU only (fmi2CoSimulation = 1)",
+                S::MODEL_NAME
+            ));
+        }
+        let own = S::guid();
+        match text(guid) {
+            Some(g) if g == own => {}
+            other => return fail(format!("GUID {other:?} does not match this binary's {own}")),
+        }
+        Some(Box::into_raw(Box::new(Instance::<S>::new(log))) as Component)
+    });
+    built.ok().flatten().unwrap_or(std::ptr::null_mut())
+}
+
+pub unsafe fn free_instance<S: Slave>(c: Component) {
+    if let Some(i) = instance::<S>(c) {
+        let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            for p in i.fmu_states.drain() {
+                drop(Box::from_raw(p as *mut Saved<S>));
+            }
+            i.magic = 0;
+            drop(Box::from_raw(c as *mut Instance<S>));
+        }));
+    }
+}
+
+pub unsafe fn set_debug_logging<S: Slave>(
+    c: Component,
+    on: Boolean,
+    n: usize,
+    categories: *const *const c_char,
+) -> Status {
+    with::<S>(c, "fmi2SetDebugLogging", allowed::ANY, |i| {
+        let cats = slice(categories, n, "categories")?;
+        if cats.is_empty() {
+            i.log.set_all(on != 0);
+            return Ok(Status::Ok);
+        }
+        let names: Vec<Option<String>> = cats.iter().map(|&p| text(p)).collect();
+        for name in &names {
+            match name {
+                Some(n) if S::LOG_CATEGORIES.contains(&n.as_str()) => {}
+                other => {
+                    return Err(error(format!(
+                        "unknown log category {other:?}; the categories are {:?}",
+                        S::LOG_CATEGORIES
+                    )))
+                }
+            }
+        }
+        for name in names.into_iter().flatten() {
+            i.log.set(&name, on != 0);
+        }
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn setup_experiment<S: Slave>(
+    c: Component,
+    tolerance_defined: Boolean,
+    tolerance: f64,
+    start_time: f64,
+    stop_time_defined: Boolean,
+    stop_time: f64,
+) -> Status {
+    with::<S>(c, "fmi2SetupExperiment", allowed::INST, |i| {
+        i.slave.setup_experiment(
+            (tolerance_defined != 0).then_some(tolerance),
+            start_time,
+            (stop_time_defined != 0).then_some(stop_time),
+        )?;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn enter_initialization_mode<S: Slave>(c: Component) -> Status {
+    with::<S>(c, "fmi2EnterInitializationMode", allowed::INST, |i| {
+        i.slave.enter_initialization()?;
+        i.state = FmiState::InitializationMode;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn exit_initialization_mode<S: Slave>(c: Component) -> Status {
+    with::<S>(c, "fmi2ExitInitializationMode", allowed::INIT, |i| {
+        i.slave.exit_initialization()?;
+        i.state = FmiState::StepComplete;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn terminate<S: Slave>(c: Component) -> Status {
+    with::<S>(c, "fmi2Terminate", allowed::DONE | allowed::FAIL, |i| {
+        i.state = FmiState::Terminated;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn reset<S: Slave>(c: Component) -> Status {
+    with::<S>(c, "fmi2Reset", allowed::ANY, |i| {
+        i.reset();
+        Ok(Status::Ok)
+    })
+}
+
+// ---- values ----------------------------------------------------------------------------------
+
+/// fmi2Get*: one value after the other; the first failure ends the call.
+unsafe fn get<S: Slave, T>(
+    c: Component,
+    func: &str,
+    vr: *const ValueReference,
+    n: usize,
+    value: *mut T,
+    get_one: impl Fn(&mut S, ValueReference) -> Result<T, Failure>,
+) -> Status {
+    with::<S>(c, func, allowed::GET, |i| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        for (o, &r) in out.iter_mut().zip(vrs) {
+            *o = get_one(&mut i.slave, r)?;
+        }
+        Ok(Status::Ok)
+    })
+}
+
+/// fmi2Set*: all values at once (the model checks all before it applies any).
+unsafe fn set<S: Slave, T>(
+    c: Component,
+    func: &str,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const T,
+    set_all: impl FnOnce(&mut S, &[ValueReference], &[T], bool) -> Result<(), Failure>,
+) -> Status {
+    with::<S>(c, func, allowed::SET, |i| {
+        let (vrs, vals) = (slice(vr, n, "vr")?, slice(value, n, "value")?);
+        let running = i.state == FmiState::StepComplete;
+        set_all(&mut i.slave, vrs, vals, running)?;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn get_real<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *mut f64,
+) -> Status {
+    get(c, "fmi2GetReal", vr, n, value, S::get_real)
+}
+
+pub unsafe fn get_integer<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *mut c_int,
+) -> Status {
+    get(c, "fmi2GetInteger", vr, n, value, S::get_integer)
+}
+
+pub unsafe fn get_boolean<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *mut Boolean,
+) -> Status {
+    get(c, "fmi2GetBoolean", vr, n, value, |s: &mut S, r| {
+        Ok(s.get_boolean(r)? as Boolean)
+    })
+}
+
+pub unsafe fn set_real<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const f64,
+) -> Status {
+    set(c, "fmi2SetReal", vr, n, value, S::set_real)
+}
+
+pub unsafe fn set_integer<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const c_int,
+) -> Status {
+    set(c, "fmi2SetInteger", vr, n, value, S::set_integer)
+}
+
+pub unsafe fn set_boolean<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const Boolean,
+) -> Status {
+    set(c, "fmi2SetBoolean", vr, n, value, S::set_boolean)
+}
+
+/// fmi2GetString and fmi2SetString: no model here has String variables.
+pub unsafe fn no_strings<S: Slave>(
+    c: Component,
+    func: &str,
+    states: u32,
+    vr: *const ValueReference,
+    n: usize,
+) -> Status {
+    with::<S>(c, func, states, |_| match slice(vr, n, "vr")?.first() {
+        Some(r) => Err(error(format!(
+            "value reference {r}: {} has no String variables",
+            S::MODEL_NAME
+        ))),
+        None => Ok(Status::Ok),
+    })
+}
+
+// ---- FMU states ------------------------------------------------------------------------------
+
+/// The FMU state behind a pointer, if this instance handed it out.
+unsafe fn owned_state<'a, S: Slave>(
+    i: &Instance<S>,
+    s: FmuState,
+) -> Result<&'a mut Saved<S>, Failure> {
+    if i.fmu_states.contains(&(s as usize)) {
+        Ok(&mut *(s as *mut Saved<S>))
+    } else {
+        Err(error(format!(
+            "FMU state {s:p} was not created by this instance or was already freed"
+        )))
+    }
+}
+
+/// Stores an FMU state in *state: in place if *state is one of ours, else in a new allocation.
+unsafe fn store_state<S: Slave>(
+    i: &mut Instance<S>,
+    state: *mut FmuState,
+    saved: Saved<S>,
+) -> CallResult {
+    if state.is_null() {
+        return Err(error("the FMUstate argument is a null pointer".into()));
+    }
+    if !(*state).is_null() && i.fmu_states.contains(&(*state as usize)) {
+        *(*state as *mut Saved<S>) = saved;
+    } else {
+        let p = Box::into_raw(Box::new(saved)) as FmuState;
+        i.fmu_states.insert(p as usize);
+        *state = p;
+    }
+    Ok(Status::Ok)
+}
+
+pub unsafe fn get_fmu_state<S: Slave>(c: Component, state: *mut FmuState) -> Status {
+    with::<S>(c, "fmi2GetFMUstate", allowed::ANY, |i| {
+        let saved = i.save();
+        store_state(i, state, saved)
+    })
+}
+
+pub unsafe fn set_fmu_state<S: Slave>(c: Component, state: FmuState) -> Status {
+    with::<S>(c, "fmi2SetFMUstate", allowed::ANY, |i| {
+        let saved = owned_state(i, state)?;
+        i.restore(saved);
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn free_fmu_state<S: Slave>(c: Component, state: *mut FmuState) -> Status {
+    with::<S>(c, "fmi2FreeFMUstate", allowed::ANY, |i| {
+        if state.is_null() || (*state).is_null() {
+            return Ok(Status::Ok);
+        }
+        owned_state(i, *state)?;
+        i.fmu_states.remove(&(*state as usize));
+        drop(Box::from_raw(*state as *mut Saved<S>));
+        *state = std::ptr::null_mut();
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn serialized_fmu_state_size<S: Slave>(
+    c: Component,
+    state: FmuState,
+    size: *mut usize,
+) -> Status {
+    with::<S>(c, "fmi2SerializedFMUstateSize", allowed::ANY, |i| {
+        let bytes = fmu_state::encode(owned_state(i, state)?);
+        *slice_mut(size, 1, "size")?.first_mut().expect("one") = bytes.len();
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn serialize_fmu_state<S: Slave>(
+    c: Component,
+    state: FmuState,
+    buf: *mut c_char,
+    size: usize,
+) -> Status {
+    with::<S>(c, "fmi2SerializeFMUstate", allowed::ANY, |i| {
+        let bytes = fmu_state::encode(owned_state(i, state)?);
+        if size < bytes.len() {
+            return Err(error(format!(
+                "buffer of {size} bytes is too small: the state needs {}",
+                bytes.len()
+            )));
+        }
+        let out = slice_mut(buf as *mut u8, bytes.len(), "serializedState")?;
+        out.copy_from_slice(&bytes);
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn deserialize_fmu_state<S: Slave>(
+    c: Component,
+    buf: *const c_char,
+    size: usize,
+    state: *mut FmuState,
+) -> Status {
+    with::<S>(c, "fmi2DeSerializeFMUstate", allowed::ANY, |i| {
+        let bytes = slice(buf as *const u8, size, "serializedState")?;
+        let saved = fmu_state::decode::<S>(bytes)
+            .map_err(|e| error(format!("serialized state rejected: {e}")))?;
+        store_state(i, state, saved)
+    })
+}
+
+// ---- Co-Simulation ---------------------------------------------------------------------------
+
+pub unsafe fn do_step<S: Slave>(c: Component, current: f64, h: f64) -> Status {
+    with::<S>(c, "fmi2DoStep", allowed::DONE, |i| {
+        let t = i.slave.time();
+        if !current.is_finite() || !h.is_finite() {
+            return Err(error(format!("currentCommunicationPoint = {current}, communicationStepSize = {h}: must be finite")));
+        }
+        if !(h > 0.0) {
+            return Err(error(format!(
+                "communicationStepSize = {h}: must be positive"
+            )));
+        }
+        // Masters accumulate time in floating point; a nanosecond-scale mismatch is rounding.
+        if (current - t).abs() > 1e-9 * t.abs().max(1.0) {
+            return Err(error(format!(
+                "currentCommunicationPoint = {current} does not match the FMU's time {t}"
+            )));
+        }
+        i.slave.do_step(current, h, &i.log)?;
+        Ok(Status::Ok)
+    })
+}
+
+/// A function of an optional capability the FMUs here do not have: fmi2Error with the reason.
+pub unsafe fn not_supported<S: Slave>(c: Component, func: &str, states: u32, why: &str) -> Status {
+    with::<S>(c, func, states, |_| Err(error(why.into())))
+}
+
+pub unsafe fn cancel_step<S: Slave>(c: Component) -> Status {
+    not_supported::<S>(
+        c,
+        "fmi2CancelStep",
+        allowed::ANY,
+        "fmi2DoStep runs synchronously: there is no step to cancel",
+    )
+}
+
+pub unsafe fn set_real_input_derivatives<S: Slave>(c: Component) -> Status {
+    not_supported::<S>(
+        c,
+        "fmi2SetRealInputDerivatives",
+        allowed::SET,
+        "canInterpolateInputs is false: input derivatives are not supported",
+    )
+}
+
+pub unsafe fn get_real_output_derivatives<S: Slave>(c: Component) -> Status {
+    not_supported::<S>(
+        c,
+        "fmi2GetRealOutputDerivatives",
+        allowed::GET,
+        "maxOutputDerivativeOrder is 0: output derivatives are not provided",
+    )
+}
+
+pub unsafe fn get_directional_derivative<S: Slave>(c: Component) -> Status {
+    not_supported::<S>(
+        c,
+        "fmi2GetDirectionalDerivative",
+        allowed::GET,
+        "providesDirectionalDerivative is false",
+    )
+}
+
+pub unsafe fn model_exchange<S: Slave>(c: Component, func: &str) -> Status {
+    let why = format!(
+        "{} is a Co-Simulation FMU: Model Exchange functions are not available",
+        S::MODEL_NAME
+    );
+    not_supported::<S>(c, func, allowed::ANY, &why)
+}
+
+/// fmi2GetStatus and friends: only fmi2LastSuccessfulTime and fmi2Terminated exist here;
+/// the others answer fmi2Discard, as the standard asks for a status that is not available.
+/// Like every fmi2Discard, it is explained through the logger (logStatusDiscard); the state
+/// does not change.
+unsafe fn status_query<S: Slave, T>(
+    c: Component,
+    func: &str,
+    kind: StatusKind,
+    value: *mut T,
+    get: impl FnOnce(&Instance<S>, StatusKind) -> Option<T>,
+) -> Status {
+    with::<S>(c, func, allowed::STATUS, |i| {
+        let out = slice_mut(value, 1, "value")?;
+        match get(i, kind) {
+            Some(v) => {
+                out[0] = v;
+                Ok(Status::Ok)
+            }
+            None if matches!(
+                kind,
+                DO_STEP_STATUS | PENDING_STATUS | LAST_SUCCESSFUL_TIME | TERMINATED
+            ) =>
+            {
+                i.log.log(
+                    Status::Discard,
+                    LOG_STATUS_DISCARD,
+                    &format!(
+                        "{func}: {} is not available from this function \
+                         (fmi2DoStep runs synchronously and never returns fmi2Pending)",
+                        [
+                            "fmi2DoStepStatus",
+                            "fmi2PendingStatus",
+                            "fmi2LastSuccessfulTime",
+                            "fmi2Terminated"
+                        ][kind as usize]
+                    ),
+                );
+                Ok(Status::Discard)
+            }
+            None => Err(error(format!("unknown fmi2StatusKind {kind}"))),
+        }
+    })
+}
+
+pub unsafe fn get_status<S: Slave>(c: Component, kind: StatusKind, value: *mut Status) -> Status {
+    status_query::<S, _>(c, "fmi2GetStatus", kind, value, |_, _| None)
+}
+
+pub unsafe fn get_real_status<S: Slave>(c: Component, kind: StatusKind, value: *mut f64) -> Status {
+    status_query::<S, _>(c, "fmi2GetRealStatus", kind, value, |i, k| {
+        (k == LAST_SUCCESSFUL_TIME).then(|| i.slave.time())
+    })
+}
+
+pub unsafe fn get_integer_status<S: Slave>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut c_int,
+) -> Status {
+    status_query::<S, _>(c, "fmi2GetIntegerStatus", kind, value, |_, _| None)
+}
+
+pub unsafe fn get_boolean_status<S: Slave>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut Boolean,
+) -> Status {
+    // The FMU never asks the master to stop.
+    status_query::<S, _>(c, "fmi2GetBooleanStatus", kind, value, |_, k| {
+        (k == TERMINATED).then_some(0)
+    })
+}
+
+pub unsafe fn get_string_status<S: Slave>(
+    c: Component,
+    kind: StatusKind,
+    value: *mut *const c_char,
+) -> Status {
+    status_query::<S, _>(c, "fmi2GetStringStatus", kind, value, |_, _| None)
+}

@@ -1,0 +1,122 @@
+//! What a model provides to the FMI layer.
+
+use crate::fmu_state::{Reader, Writer};
+use crate::instance::{error, Failure};
+use crate::{Boolean, Logger, ValueReference};
+
+/// The model side of an FMU instance. The layer owns the FMI state machine: it calls these
+/// methods only in the states where the standard allows the corresponding function, and a
+/// failure (`Err`) is logged with the function's name and leaves the instance in the error
+/// state (status Error) or stepFailed (status Discard from `do_step`).
+///
+/// A value of the type is everything that determines how the instance continues: an FMU state
+/// is a clone, and a serialized FMU state is its `encode`d payload.
+pub trait Slave: Clone + 'static {
+    /// The model identifier (also the name used in messages).
+    const MODEL_NAME: &'static str;
+    /// The log categories of the modelDescription, in its order.
+    const LOG_CATEGORIES: &'static [&'static str];
+    /// The first 8 bytes of a serialized FMU state of this model.
+    const STATE_MAGIC: [u8; 8];
+    /// The version of the payload format; a state of another version is rejected.
+    const STATE_FORMAT_VERSION: u32;
+
+    /// The GUID of the modelDescription; fmi2Instantiate and serialized states must match it.
+    fn guid() -> &'static str;
+
+    /// A new instance, as after fmi2Instantiate or fmi2Reset.
+    fn fresh() -> Self;
+
+    /// fmi2SetupExperiment (in the instantiated state).
+    fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Result<(), Failure>;
+
+    /// fmi2EnterInitializationMode.
+    fn enter_initialization(&mut self) -> Result<(), Failure> {
+        Ok(())
+    }
+
+    /// fmi2ExitInitializationMode: afterwards the instance steps.
+    fn exit_initialization(&mut self) -> Result<(), Failure>;
+
+    /// The value of one variable (fmi2Get*, from initialization mode on).
+    fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure>;
+    fn get_integer(&mut self, vr: ValueReference) -> Result<i32, Failure> {
+        Err(no_variables::<Self>(vr, "Integer"))
+    }
+    fn get_boolean(&mut self, vr: ValueReference) -> Result<bool, Failure> {
+        Err(no_variables::<Self>(vr, "Boolean"))
+    }
+
+    /// fmi2Set*: sets `values[k]` to `vrs[k]` (equal lengths), all or none: every value is
+    /// checked before any is applied. `running`: after initialization (stepComplete), when
+    /// only tunable parameters and inputs may change.
+    fn set_real(
+        &mut self,
+        vrs: &[ValueReference],
+        values: &[f64],
+        running: bool,
+    ) -> Result<(), Failure>;
+    fn set_integer(
+        &mut self,
+        vrs: &[ValueReference],
+        _values: &[i32],
+        _running: bool,
+    ) -> Result<(), Failure> {
+        match vrs.first() {
+            Some(&vr) => Err(no_variables::<Self>(vr, "Integer")),
+            None => Ok(()),
+        }
+    }
+    /// Booleans as the master passes them (fmi2Boolean: 0 is false).
+    fn set_boolean(
+        &mut self,
+        vrs: &[ValueReference],
+        _values: &[Boolean],
+        _running: bool,
+    ) -> Result<(), Failure> {
+        match vrs.first() {
+            Some(&vr) => Err(no_variables::<Self>(vr, "Boolean")),
+            None => Ok(()),
+        }
+    }
+
+    /// fmi2DoStep from `current` (checked to be the instance's time) over `h` (finite and
+    /// positive). A failure with status Discard means the step could not be completed and the
+    /// instance keeps its values at `current`.
+    fn do_step(&mut self, current: f64, h: f64, log: &Logger) -> Result<(), Failure>;
+
+    /// The time of the last communication point (the start time before the first step).
+    fn time(&self) -> f64;
+
+    /// Writes the payload of a serialized FMU state.
+    fn encode(&self, w: &mut Writer);
+    /// Reads what `encode` wrote (the layer checks that nothing is left over).
+    fn decode(r: &mut Reader) -> Result<Self, String>;
+}
+
+fn no_variables<S: Slave>(vr: ValueReference, ty: &str) -> Failure {
+    error(format!(
+        "value reference {vr}: {} has no {ty} variables",
+        S::MODEL_NAME
+    ))
+}
+
+/// The checks of fmi2SetupExperiment's times that every model makes.
+pub fn check_experiment_times(start: f64, stop: Option<f64>) -> Result<(), Failure> {
+    if !start.is_finite() {
+        return Err(error(format!("startTime = {start}: must be finite")));
+    }
+    if let Some(s) = stop {
+        if !(s >= start) || !s.is_finite() {
+            return Err(error(format!(
+                "stopTime = {s}: must be finite and not before startTime = {start}"
+            )));
+        }
+    }
+    Ok(())
+}
