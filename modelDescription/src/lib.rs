@@ -139,20 +139,7 @@ fn check(t: &Table) {
 /// A stable GUID: a 128-bit FNV-1a hash of the table and the crate version, so that a changed
 /// table gives a new GUID and the same table always gives the same one.
 pub fn guid(version: &str) -> String {
-    let mut h: u128 = 0x6c62272e07bb014262b821756295c58d;
-    for b in TABLE_TOML.bytes().chain(version.bytes()) {
-        h ^= b as u128;
-        h = h.wrapping_mul(0x0000000001000000000000000000013B);
-    }
-    let x = format!("{h:032x}");
-    format!(
-        "{{{}-{}-{}-{}-{}}}",
-        &x[0..8],
-        &x[8..12],
-        &x[12..16],
-        &x[16..20],
-        &x[20..32]
-    )
+    fmi2_slave::guid_from_hash(TABLE_TOML.bytes().chain(version.bytes()))
 }
 
 fn elem<'a>(name: &'a str, attrs: &[(&str, String)]) -> BytesStart<'a> {
