@@ -34,7 +34,7 @@ def build_gear_fmu():
 
 def build_controller_fmu():
     return _packaged(
-        ["cargo", "run", "-q", "--release", "--manifest-path", "controller-fmu/Cargo.toml"]
+        ["cargo", "run", "-q", "--release", "-p", "fmu-packaging", "--bin", "package-controller"]
     )
 
 

@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 pub const MODEL_NAME: &str = "SpeedController";
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-/// The log categories, in the order of `fmi::logging::Category` (the module shared with
-/// SpurGearMesh): events, solver, then the four status categories.
+/// The log categories: the debug categories logEvents and logSolver, then the four status
+/// categories of fmi2_slave's logger.
 pub const LOG_CATEGORIES: &[&str] = &[
     "logEvents",
     "logSolver",
@@ -155,12 +155,10 @@ const UNITS: [(&str, [i32; 4]); 6] = [
 /// The GUID: a 128-bit FNV-1a hash of the table's text and the version, so a changed table
 /// gives a new GUID.
 pub fn guid() -> String {
-    let mut h: u128 = 0x6c62272e07bb014262b821756295c58d;
+    let mut text = String::new();
     let mut feed = |s: &str| {
-        for b in s.bytes().chain([0u8]) {
-            h ^= b as u128;
-            h = h.wrapping_mul(0x0000000001000000000000000000013B);
-        }
+        text.push_str(s);
+        text.push('\0');
     };
     feed(MODEL_NAME);
     feed(VERSION);
@@ -170,15 +168,7 @@ pub fn guid() -> String {
             v.name, v.ty, v.causality, v.start, v.lower, v.unit
         ));
     }
-    let x = format!("{h:032x}");
-    format!(
-        "{{{}-{}-{}-{}-{}}}",
-        &x[0..8],
-        &x[8..12],
-        &x[12..16],
-        &x[16..20],
-        &x[20..32]
-    )
+    fmi2_slave::guid_from_hash(text.into_bytes())
 }
 
 fn esc(s: &str) -> String {
@@ -206,7 +196,7 @@ pub fn model_description_xml() -> String {
     .unwrap();
     writeln!(
         w,
-        r#"  <CoSimulation modelIdentifier="{MODEL_NAME}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="false" providesDirectionalDerivative="false"/>"#
+        r#"  <CoSimulation modelIdentifier="{MODEL_NAME}" needsExecutionTool="false" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" maxOutputDerivativeOrder="0" canRunAsynchronuously="false" canBeInstantiatedOnlyOncePerProcess="false" canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="false"/>"#
     )
     .unwrap();
     writeln!(w, "  <UnitDefinitions>").unwrap();

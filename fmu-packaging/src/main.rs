@@ -2,60 +2,27 @@
 //! variable table as the binary's value references) and documentation/index.html with a
 //! figure of the mesh geometry drawn from the model's own geometry code.
 //!
-//! Usage: `cargo run -p fmu-packaging --release` (from anywhere in the workspace).
+//! Usage: `cargo run -p fmu-packaging --release` (from anywhere in the workspace; the default
+//! binary of the package, beside `package-controller`).
 
 use model_description::{load, model_description_xml, Table};
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::variables::Params;
-use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::process::Command;
 
 fn main() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .args(["build", "--release", "--lib", "-p", "spur_gear_mesh"])
-        .current_dir(&root)
-        .status()
-        .expect("running cargo");
-    if !status.success() {
-        eprintln!("package-fmu: the release build failed");
-        std::process::exit(1);
-    }
-    let target = std::env::var("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| root.join("target"));
-    let so = std::fs::read(target.join("release/libspur_gear_mesh.so"))
-        .expect("reading the release binary");
+    let so = fmu_packaging::release_binary("spur_gear_mesh");
     let table = load();
     let xml = model_description_xml(&table, env!("CARGO_PKG_VERSION"));
     let doc = documentation(&table);
-    let out_dir = target.join("fmu");
-    std::fs::create_dir_all(&out_dir).expect("creating target/fmu");
-    let path = out_dir.join("SpurGearMesh.fmu");
-    write_zip(
-        &path,
+    let path = fmu_packaging::write_fmu(
+        "SpurGearMesh",
         &[
             ("modelDescription.xml", xml.as_bytes()),
             ("binaries/linux64/SpurGearMesh.so", &so),
             ("documentation/index.html", doc.as_bytes()),
         ],
     );
-    println!("{}", path.canonicalize().unwrap_or(path).display());
-}
-
-fn write_zip(path: &Path, files: &[(&str, &[u8])]) {
-    let file = std::fs::File::create(path).expect("creating the .fmu");
-    let mut zip = zip::ZipWriter::new(file);
-    for (name, data) in files {
-        let opts = zip::write::SimpleFileOptions::default()
-            .compression_method(zip::CompressionMethod::Deflated)
-            .unix_permissions(if name.ends_with(".so") { 0o755 } else { 0o644 });
-        zip.start_file(*name, opts).expect("zip entry");
-        zip.write_all(data).expect("zip data");
-    }
-    zip.finish().expect("finishing the zip");
+    println!("{}", path.display());
 }
 
 fn esc(s: &str) -> String {

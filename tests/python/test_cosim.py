@@ -101,7 +101,7 @@ def on_grid(ref, h):
 
 def test_controller_crate_unit_tests():
     subprocess.run(
-        ["cargo", "test", "-q", "--release", "--manifest-path", "controller-fmu/Cargo.toml"],
+        ["cargo", "test", "-q", "--release", "-p", "speed_controller"],
         cwd=ROOT,
         check=True,
         capture_output=True,
@@ -164,6 +164,15 @@ def test_controller_fmu_state_machine_and_law(controller_fmu, tmp_path):
         s.setFMUstate(state)
         assert s.getReal([vr["tau"], vr["integral"]]) == [12.0, 0.0]
         s.freeFMUstate(state)
+        # Serialized states (fmi2-slave's envelope around the controller's payload).
+        s.doStep(0.0, 0.1)
+        blob = s.serializeFMUstate(s.getFMUstate())
+        s.doStep(0.1, 0.1)
+        s.setFMUstate(s.deSerializeFMUstate(blob))
+        assert s.getReal([vr["integral"], vr["tau"]]) == pytest.approx([50.0, 70.0])
+        with pytest.raises(FMICallException):  # corrupted
+            s.deSerializeFMUstate(blob[:-1] + bytes([blob[-1] ^ 1]))
+        s.reset()
         with pytest.raises(FMICallException):  # wrong communication point
             s.doStep(0.5, 0.1)
         s.reset()
