@@ -1,11 +1,14 @@
 //! Shared helpers of the tests/fmi_*.rs integration tests: an FMU instance driven through the
-//! exported C functions (the same symbols as in the .so, called in-process through the rlib),
-//! a logger callback that records every message with its status and category, the paper scene,
-//! and the resident set size of the process.
-#![allow(dead_code, non_snake_case)]
+//! exported C functions (the same symbols as in the .so, called in-process: the test binary links
+//! the crate's rlib and declares the functions itself, from the FMI 2.0 headers, so the tests
+//! see the C ABI as a master does and nothing of the crate's Rust-level FMI types), a logger
+//! callback that records every message with its status and category, the paper scene, and the
+//! resident set size of the process.
+#![allow(dead_code, non_snake_case, non_upper_case_globals)]
 
-use spur_gear_mesh::fmi::exports::*;
-use spur_gear_mesh::fmi::{CallbackFunctions, Component, FmuState, LoggerFn, Status};
+pub mod ffi;
+
+use ffi::*;
 use spur_gear_mesh::variables::{VarType, GUID, VARIABLES};
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int, c_void};
@@ -155,7 +158,7 @@ impl Fmu {
         let c = unsafe {
             fmi2Instantiate(
                 cname.as_ptr(),
-                spur_gear_mesh::fmi::TYPE_CO_SIMULATION,
+                TYPE_CO_SIMULATION,
                 guid.as_ptr(),
                 c"file:///nonexistent".as_ptr(),
                 &*cb,
@@ -224,8 +227,7 @@ impl Fmu {
     }
     pub fn time(&self) -> f64 {
         let mut t = f64::NAN;
-        let s =
-            unsafe { fmi2GetRealStatus(self.c, spur_gear_mesh::fmi::LAST_SUCCESSFUL_TIME, &mut t) };
+        let s = unsafe { fmi2GetRealStatus(self.c, LAST_SUCCESSFUL_TIME, &mut t) };
         assert_eq!(s, Status::Ok);
         t
     }

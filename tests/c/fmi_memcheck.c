@@ -1,0 +1,269 @@
+/* A full simulation through the C API of the FMU's shared library, as a C master runs it: the
+ * program behind the valgrind (memcheck) run of issue 5 (tools/reliability.sh).
+ *
+ *   fmi_memcheck <SpurGearMesh.so> <guid> [steps]
+ *
+ * Loads the library with dlopen, resolves every function with the types of the standard's
+ * fmi2FunctionTypes.h, and runs: instantiation (also failed ones), debug logging, two instances,
+ * initialization of the running paper scene, `steps` communication steps of 1e-4 s with the
+ * outputs read and checked after every step, FMU states every 500 steps (get, size, serialize,
+ * deserialize into the other instance, set, continue both bit-identically, overwrite in place,
+ * free), error paths (unknown value reference, unknown log category, wrong time, bogus and
+ * freed FMU-state pointers, truncated and corrupted blobs, calls in the wrong state), recovery
+ * with fmi2SetFMUstate and fmi2Reset, terminate and free, including an instance freed with FMU
+ * states still allocated. Exits 0 if every check passed. The logger is a real C-variadic
+ * function that formats the message printf-style (so the FMU's %% escaping is exercised).
+ *
+ * The value references are those of modelDescription/variables.toml; tools/reliability.sh
+ * checks them against the packaged modelDescription.xml before running this.
+ */
+#include <dlfcn.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2FunctionTypes.h"
+
+enum {
+    VR_CHI = 21, VR_C_LOAD = 24, VR_W_A_START = 27, VR_W_B_START = 28, VR_TAU_A = 40,
+    VR_W_A = 52, VR_W_B = 53, VR_DTE = 54,
+    VR_S_F1 = 66, VR_S_F2 = 67, VR_S_B1 = 68, VR_S_B2 = 69,
+    VR_S_B = 85, VR_BASE_PITCH = 89
+};
+
+static int failures = 0;
+static long messages = 0, error_messages = 0;
+static int verbose = 0;
+
+#define CHECK(cond, ...)                                                   \
+    do {                                                                   \
+        if (!(cond)) {                                                     \
+            fprintf(stderr, "fmi_memcheck: line %d: ", __LINE__);          \
+            fprintf(stderr, __VA_ARGS__);                                  \
+            fprintf(stderr, "\n");                                         \
+            failures++;                                                    \
+        }                                                                  \
+    } while (0)
+
+static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                   fmi2String category, fmi2String message, ...) {
+    char text[2048];
+    va_list ap;
+    (void)env;
+    va_start(ap, message);
+    vsnprintf(text, sizeof text, message, ap);
+    va_end(ap);
+    messages++;
+    if (status >= fmi2Discard) error_messages++;
+    if (verbose || status == fmi2Fatal)
+        fprintf(stderr, "[%s %d %s] %s\n", instance, (int)status, category, text);
+}
+
+struct api {
+    fmi2GetVersionTYPE *GetVersion;
+    fmi2GetTypesPlatformTYPE *GetTypesPlatform;
+    fmi2InstantiateTYPE *Instantiate;
+    fmi2FreeInstanceTYPE *FreeInstance;
+    fmi2SetDebugLoggingTYPE *SetDebugLogging;
+    fmi2SetupExperimentTYPE *SetupExperiment;
+    fmi2EnterInitializationModeTYPE *EnterInitializationMode;
+    fmi2ExitInitializationModeTYPE *ExitInitializationMode;
+    fmi2TerminateTYPE *Terminate;
+    fmi2ResetTYPE *Reset;
+    fmi2GetRealTYPE *GetReal;
+    fmi2SetRealTYPE *SetReal;
+    fmi2GetIntegerTYPE *GetInteger;
+    fmi2GetFMUstateTYPE *GetFMUstate;
+    fmi2SetFMUstateTYPE *SetFMUstate;
+    fmi2FreeFMUstateTYPE *FreeFMUstate;
+    fmi2SerializedFMUstateSizeTYPE *SerializedFMUstateSize;
+    fmi2SerializeFMUstateTYPE *SerializeFMUstate;
+    fmi2DeSerializeFMUstateTYPE *DeSerializeFMUstate;
+    fmi2DoStepTYPE *DoStep;
+    fmi2GetRealStatusTYPE *GetRealStatus;
+    fmi2GetStatusTYPE *GetStatus;
+    fmi2CancelStepTYPE *CancelStep;
+};
+
+static void *sym(void *lib, const char *name) {
+    void *p = dlsym(lib, name);
+    if (!p) {
+        fprintf(stderr, "fmi_memcheck: %s is not exported\n", name);
+        exit(2);
+    }
+    return p;
+}
+
+static const fmi2ValueReference outputs[] = {VR_W_A, VR_W_B, VR_DTE, VR_S_F1, VR_S_F2, VR_S_B1, VR_S_B2};
+#define N_OUT (sizeof outputs / sizeof outputs[0])
+
+static void init_paper_scene(const struct api *f, fmi2Component c) {
+    const fmi2ValueReference vr[] = {VR_TAU_A, VR_C_LOAD, VR_W_A_START, VR_W_B_START, VR_CHI};
+    const fmi2Real v[] = {100.0, 2.0, 100.0, 100.0 / 1.5, 10.0};
+    CHECK(f->SetReal(c, vr, 5, v) == fmi2OK, "set the paper scene");
+    CHECK(f->SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK, "setup");
+    CHECK(f->EnterInitializationMode(c) == fmi2OK, "enter initialization");
+    CHECK(f->ExitInitializationMode(c) == fmi2OK, "exit initialization");
+}
+
+/* Serializes an FMU state of c into a malloc'ed buffer. */
+static char *serialize(const struct api *f, fmi2Component c, fmi2FMUstate s, size_t *n) {
+    char *buf;
+    CHECK(f->SerializedFMUstateSize(c, s, n) == fmi2OK && *n > 0, "serialized size");
+    buf = malloc(*n);
+    CHECK(f->SerializeFMUstate(c, s, buf, *n) == fmi2OK, "serialize");
+    return buf;
+}
+
+int main(int argc, char **argv) {
+    struct api f;
+    void *lib;
+    fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
+    fmi2Component c, c2, c3;
+    fmi2Real t = 0.0, h = 1e-4, y[N_OUT], y2[N_OUT], geo[2];
+    fmi2ValueReference geo_vr[] = {VR_S_B, VR_BASE_PITCH};
+    long steps, k, windows_checked = 0;
+    const char *cat_bad[] = {"logEverything"};
+    fmi2FMUstate keep = NULL;
+
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s <SpurGearMesh.so> <guid> [steps]\n", argv[0]);
+        return 2;
+    }
+    steps = argc > 3 ? atol(argv[3]) : 5000;
+    verbose = getenv("MEMCHECK_VERBOSE") != NULL;
+    lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        fprintf(stderr, "fmi_memcheck: %s\n", dlerror());
+        return 2;
+    }
+#define LOAD(name) f.name = (fmi2##name##TYPE *)sym(lib, "fmi2" #name)
+    LOAD(GetVersion); LOAD(GetTypesPlatform); LOAD(Instantiate); LOAD(FreeInstance);
+    LOAD(SetDebugLogging); LOAD(SetupExperiment); LOAD(EnterInitializationMode);
+    LOAD(ExitInitializationMode); LOAD(Terminate); LOAD(Reset); LOAD(GetReal); LOAD(SetReal);
+    LOAD(GetInteger); LOAD(GetFMUstate); LOAD(SetFMUstate); LOAD(FreeFMUstate);
+    LOAD(SerializedFMUstateSize); LOAD(SerializeFMUstate); LOAD(DeSerializeFMUstate);
+    LOAD(DoStep); LOAD(GetRealStatus); LOAD(GetStatus); LOAD(CancelStep);
+
+    CHECK(strcmp(f.GetVersion(), "2.0") == 0, "version");
+    CHECK(strcmp(f.GetTypesPlatform(), "default") == 0, "types platform");
+
+    /* Failed instantiations. */
+    CHECK(f.Instantiate("x", fmi2CoSimulation, "{wrong}", "", &cb, fmi2False, fmi2False) == NULL, "wrong GUID");
+    CHECK(f.Instantiate("x", fmi2ModelExchange, argv[2], "", &cb, fmi2False, fmi2False) == NULL, "ME");
+    CHECK(f.Instantiate(NULL, fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False) == NULL, "no name");
+
+    c = f.Instantiate("a", fmi2CoSimulation, argv[2], "file:///tmp", &cb, fmi2False, fmi2True);
+    c2 = f.Instantiate("b", fmi2CoSimulation, argv[2], NULL, &cb, fmi2False, fmi2False);
+    CHECK(c && c2, "instantiate");
+    if (!c || !c2) return 1;
+    CHECK(f.SetDebugLogging(c, fmi2True, 0, NULL) == fmi2OK, "debug logging on");
+    CHECK(f.SetDebugLogging(c2, fmi2True, 1, cat_bad) == fmi2Error, "unknown category");
+    CHECK(f.Reset(c2) == fmi2OK, "reset after the error");
+
+    init_paper_scene(&f, c);
+    init_paper_scene(&f, c2);
+    CHECK(f.GetReal(c, geo_vr, 2, geo) == fmi2OK, "s_b, base_pitch");
+
+    for (k = 0; k < steps; k++) {
+        unsigned i;
+        CHECK(f.DoStep(c, t, h, fmi2True) == fmi2OK, "step %ld at t = %g", k, t);
+        t += h;
+        CHECK(f.GetReal(c, outputs, N_OUT, y) == fmi2OK, "outputs");
+        for (i = 0; i < N_OUT; i++) CHECK(isfinite(y[i]), "output %u is %g", outputs[i], y[i]);
+        for (i = 3; i < 7; i++) {
+            CHECK(y[i] >= geo[0] - 2 * geo[1] - 1e-9 && y[i] <= geo[0] + 1e-9,
+                  "contact coordinate %u = %.17g outside [s_b - 2 p_b, s_b] at t = %g", outputs[i], y[i], t);
+            windows_checked++;
+        }
+
+        if (k % 500 == 250) {
+            fmi2FMUstate s = NULL, s2 = NULL, bogus = (fmi2FMUstate)(size_t)0x1234;
+            size_t n = 0;
+            char *blob;
+            fmi2Real t2 = 0.0;
+            int j;
+            CHECK(f.GetFMUstate(c, &s) == fmi2OK && s, "get state");
+            CHECK(f.GetFMUstate(c, &s) == fmi2OK, "get state in place");
+            blob = serialize(&f, c, s, &n);
+            /* The other instance takes the state over and continues bit-identically. */
+            CHECK(f.DeSerializeFMUstate(c2, blob, n, &s2) == fmi2OK && s2, "deserialize");
+            CHECK(f.SetFMUstate(c2, s2) == fmi2OK, "set the deserialized state");
+            CHECK(f.GetRealStatus(c2, fmi2LastSuccessfulTime, &t2) == fmi2OK && t2 == t, "time of the copy");
+            for (j = 0; j < 3; j++) {
+                fmi2Real ta = t, tb = t;
+                CHECK(f.DoStep(c, ta, h, fmi2False) == fmi2OK, "step a");
+                CHECK(f.DoStep(c2, tb, h, fmi2False) == fmi2OK, "step b");
+                t += h;
+                f.GetReal(c, outputs, N_OUT, y);
+                f.GetReal(c2, outputs, N_OUT, y2);
+                CHECK(memcmp(y, y2, sizeof y) == 0, "the copy differs after %d steps", j + 1);
+            }
+            /* Rewind a to the saved state (the master's loop time follows). */
+            CHECK(f.SetFMUstate(c, s) == fmi2OK, "rewind");
+            t -= 3 * h;
+            CHECK(f.GetRealStatus(c, fmi2LastSuccessfulTime, &t2) == fmi2OK, "time after rewind");
+            t = t2;
+            /* Error paths on b, then recovery from its saved state. */
+            CHECK(f.SetFMUstate(c2, bogus) == fmi2Error, "bogus state pointer");
+            CHECK(f.SetFMUstate(c2, s) == fmi2Error, "state of another instance");
+            CHECK(f.DeSerializeFMUstate(c2, blob, n / 2, &s2) == fmi2Error, "truncated blob");
+            blob[n - 20] ^= 0x40;
+            CHECK(f.DeSerializeFMUstate(c2, blob, n, &s2) == fmi2Error, "corrupted blob");
+            CHECK(f.DoStep(c2, -1.0, h, fmi2False) == fmi2Error, "a step in the error state");
+            CHECK(f.SetFMUstate(c2, s2) == fmi2OK, "recover b");
+            CHECK(f.DoStep(c2, t + 1.0, h, fmi2False) == fmi2Error, "wrong time");
+            CHECK(f.SetFMUstate(c2, s2) == fmi2OK, "recover b again");
+            CHECK(f.CancelStep(c2) == fmi2Error, "no step to cancel");
+            CHECK(f.Reset(c2) == fmi2OK, "reset b");
+            init_paper_scene(&f, c2);
+            CHECK(f.FreeFMUstate(c2, &s2) == fmi2OK && s2 == NULL, "free b's state");
+            CHECK(f.FreeFMUstate(c2, &s2) == fmi2OK, "free NULL");
+            s2 = s;
+            CHECK(f.FreeFMUstate(c2, &s2) == fmi2Error, "free another instance's state");
+            CHECK(f.FreeFMUstate(c, &s) == fmi2OK, "free a's state");
+            s2 = blob; /* a readable heap pointer that is no FMU state */
+            CHECK(f.SetFMUstate(c2, s2) == fmi2Error, "a heap pointer that is no state");
+            free(blob);
+            {
+                fmi2ValueReference bad = 99999;
+                fmi2Real x;
+                CHECK(f.GetReal(c2, &bad, 1, &x) == fmi2Error, "unknown value reference");
+                CHECK(f.Reset(c2) == fmi2OK, "reset b");
+                init_paper_scene(&f, c2);
+            }
+        }
+    }
+
+    /* An FMU state left allocated: fmi2FreeInstance frees it. */
+    CHECK(f.GetFMUstate(c2, &keep) == fmi2OK, "a state to leave behind");
+    {
+        fmi2Status st;
+        CHECK(f.GetStatus(c, fmi2DoStepStatus, &st) == fmi2Discard, "no asynchronous step");
+    }
+    CHECK(f.Reset(c) == fmi2OK, "reset a");
+    init_paper_scene(&f, c);
+    t = 0.0;
+    for (k = 0; k < 100; k++, t += h) CHECK(f.DoStep(c, t, h, fmi2True) == fmi2OK, "step after reset");
+    CHECK(f.Terminate(c) == fmi2OK, "terminate");
+    CHECK(f.DoStep(c, t, h, fmi2True) == fmi2Error, "a step after terminate");
+    CHECK(f.GetReal(c, outputs, N_OUT, y) == fmi2OK, "outputs after terminate");
+    f.FreeInstance(c);
+    f.FreeInstance(c2);
+
+    /* Many short-lived instances. */
+    for (k = 0; k < 200; k++) {
+        c3 = f.Instantiate("c", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
+        CHECK(c3 != NULL, "instantiate %ld", k);
+        if (k % 2) init_paper_scene(&f, c3);
+        f.FreeInstance(c3);
+    }
+    f.FreeInstance(NULL);
+
+    dlclose(lib);
+    printf("fmi_memcheck: %ld steps, %ld window checks, %ld log messages (%ld errors/discards), %d failures\n",
+           steps, windows_checked, messages, error_messages, failures);
+    return failures ? 1 : 0;
+}

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Issue 5, memory: runs a full simulation through the C API of the packaged FMU's binary under
+# valgrind (memcheck) and fails on any memory error or any definite or indirect leak.
+# The program is tests/c/fmi_memcheck.c, compiled against the standard's headers (FMPy's copy in
+# .venv) and loading binaries/linux64/SpurGearMesh.so from the .fmu with dlopen.
+#
+# Usage: bash tools/reliability.sh [steps]      (default 20000 communication steps of 1e-4 s; ~20 s)
+# Called by tools/test-all.sh after packaging. Needs gcc and valgrind (installed with apt-get
+# if missing and possible).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+steps=${1:-20000}
+
+py=$(bash tools/venv.sh)
+echo "== package the FMU"
+fmu=$(cargo run -q -p fmu-packaging --release | tail -n 1)
+[ -f "$fmu" ] || { echo "reliability.sh: the packager printed '$fmu'" >&2; exit 1; }
+
+if ! command -v valgrind >/dev/null || ! command -v gcc >/dev/null; then
+  if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
+    echo "== installing valgrind and gcc"
+    apt-get update -qq && apt-get install -y -qq valgrind gcc >/dev/null
+  else
+    echo "reliability.sh: valgrind and gcc are needed (apt-get install valgrind gcc)" >&2
+    exit 1
+  fi
+fi
+
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+# GUID and value references from the packaged modelDescription.xml; the program's value
+# references must be the table's (tests/c/fmi_memcheck.c, enum at the top).
+guid=$("$py" - "$fmu" "$work" <<'EOF'
+import sys, zipfile, xml.etree.ElementTree as ET
+fmu, work = sys.argv[1], sys.argv[2]
+z = zipfile.ZipFile(fmu)
+z.extract("binaries/linux64/SpurGearMesh.so", work)
+md = ET.fromstring(z.read("modelDescription.xml"))
+vr = {v.get("name"): int(v.get("valueReference")) for v in md.iter("ScalarVariable")}
+expected = dict(chi=21, c_load=24, w_A_start=27, w_B_start=28, tau_A=40, w_A=52, w_B=53, dte=54,
+                s_f1=66, s_f2=67, s_b1=68, s_b2=69, s_b=85, base_pitch=89)
+wrong = {k: (v, vr.get(k)) for k, v in expected.items() if vr.get(k) != v}
+if wrong:
+    sys.exit(f"tests/c/fmi_memcheck.c: value references changed (expected, actual): {wrong}")
+print(md.get("guid"))
+EOF
+)
+inc=$("$py" -c 'import fmpy, os; print(os.path.join(os.path.dirname(fmpy.__file__), "c-code"))')
+so="$work/binaries/linux64/SpurGearMesh.so"
+
+echo "== compile tests/c/fmi_memcheck.c"
+gcc -std=c99 -g -O1 -Wall -Wextra -Werror -I"$inc" tests/c/fmi_memcheck.c -ldl -lm -o "$work/fmi_memcheck"
+
+echo "== $steps steps natively"
+"$work/fmi_memcheck" "$so" "$guid" "$steps"
+
+echo "== $steps steps under valgrind (memcheck)"
+valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite,indirect \
+  --errors-for-leak-kinds=definite,indirect --track-origins=yes \
+  "$work/fmi_memcheck" "$so" "$guid" "$steps"
+echo "== valgrind: no memory errors, no definite or indirect leaks"
