@@ -5,7 +5,7 @@
 /// `fmi2_slave::ffi`. Invoke it once per FMU binary (a cdylib exports exactly one model):
 ///
 /// ```ignore
-/// fmi2_slave::export_fmi2!(crate::fmi::instance::GearMesh);
+/// fmi2_slave::export_fmi2!(crate::fmi::instance::SpurGearMesh);
 /// ```
 ///
 /// The signatures are those of the standard's headers (checked by tests/python/test_abi.py).
