@@ -129,7 +129,8 @@ impl<S: Slave> Instance<S> {
         self.slave = S::fresh();
     }
 
-    pub fn save(&self) -> Saved<S> {
+    pub fn save(&mut self) -> Saved<S> {
+        self.slave.prepare_save();
         Saved {
             state: self.state,
             slave: self.slave.clone(),

@@ -92,6 +92,10 @@ pub trait Slave: Clone + 'static {
 
     /// The time of the last communication point (the start time before the first step).
     fn time(&self) -> f64;
+    /// Called before the instance is saved (fmi2GetFMUstate). A slave whose solver cannot be
+    /// copied makes its current point a restart point here, so that the saved and the live
+    /// instance continue identically.
+    fn prepare_save(&mut self) {}
 
     /// Writes the payload of a serialized FMU state.
     fn encode(&self, w: &mut Writer);

@@ -5,9 +5,9 @@
 //! Internal steps are independent of the communication steps: a step may reach past the
 //! communication point, and the next `advance` continues it as long as the inputs did not change.
 
+pub mod bdf;
 pub mod dopri5;
 pub mod simulation;
-pub mod trbdf2;
 
 use crate::model::contact::N_EVENTS;
 use crate::model::mesh::{EventReport, LawOutOfRange, N_CONTROLLED};
@@ -46,7 +46,15 @@ pub struct Tolerance {
 #[derive(Clone, Debug, PartialEq)]
 pub enum StepError {
     Law(LawOutOfRange),
-    StepTooSmall { t: f64, h: f64 },
+    StepTooSmall {
+        t: f64,
+        h: f64,
+    },
+    /// The implicit solver (diffsol) failed otherwise.
+    Solver {
+        t: f64,
+        message: String,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -59,6 +67,10 @@ pub enum DriverError {
     StepTooSmall {
         t: f64,
         h: f64,
+    },
+    Solver {
+        t: f64,
+        message: String,
     },
     /// The work cap of one communication step was reached (e.g. chattering contacts).
     TooMuchWork {
@@ -75,6 +87,7 @@ impl std::fmt::Display for DriverError {
             DriverError::StepTooSmall { t, h } => {
                 write!(f, "at t = {t} s the integrator's step fell to {h} s without meeting the tolerance")
             }
+            DriverError::Solver { t, message } => write!(f, "at t = {t} s the implicit solver failed: {message}"),
             DriverError::TooMuchWork { t, steps, events } => write!(
                 f,
                 "at t = {t} s the communication step needed more than {steps} internal steps or {events} events \
@@ -132,17 +145,18 @@ pub fn initial_step<S: System>(
     Ok((100.0 * h0).min(h1).min(sys.max_step(y, true)))
 }
 
-/// The integration methods, chosen by the `solver` parameter.
+/// The integration methods, chosen by the `solver` parameter: the hand-written Dormand-Prince
+/// and diffsol's BDF (docs/integrators.md has the measurements behind both choices).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Method {
     Dopri5(dopri5::Dopri5),
-    TrBdf2(trbdf2::TrBdf2),
+    Bdf(bdf::Bdf),
 }
 
 impl Method {
     pub fn from_solver(solver: i32) -> Method {
         match solver {
-            2 => Method::TrBdf2(trbdf2::TrBdf2::new()),
+            2 => Method::Bdf(bdf::Bdf::new()),
             _ => Method::Dopri5(dopri5::Dopri5::new()),
         }
     }
@@ -150,28 +164,28 @@ impl Method {
     fn t(&self) -> f64 {
         match self {
             Method::Dopri5(m) => m.t,
-            Method::TrBdf2(m) => m.t,
+            Method::Bdf(m) => m.t,
         }
     }
 
     fn t_prev(&self) -> f64 {
         match self {
             Method::Dopri5(m) => m.t_prev,
-            Method::TrBdf2(m) => m.t_prev,
+            Method::Bdf(m) => m.t_prev,
         }
     }
 
     fn y(&self) -> &State {
         match self {
             Method::Dopri5(m) => &m.y,
-            Method::TrBdf2(m) => &m.y,
+            Method::Bdf(m) => &m.y,
         }
     }
 
     fn h(&self) -> f64 {
         match self {
             Method::Dopri5(m) => m.h,
-            Method::TrBdf2(m) => m.h,
+            Method::Bdf(m) => m.h,
         }
     }
 
@@ -181,11 +195,11 @@ impl Method {
         }
         match self {
             Method::Dopri5(m) => m.interpolate(t),
-            Method::TrBdf2(m) => m.interpolate(t),
+            Method::Bdf(m) => m.interpolate(t),
         }
     }
 
-    fn restart<S: System>(
+    fn restart<S: System + Clone + 'static>(
         &mut self,
         sys: &S,
         t: f64,
@@ -196,7 +210,7 @@ impl Method {
     ) -> Result<(), StepError> {
         match self {
             Method::Dopri5(m) => m.restart(sys, t, y, h, tol, stats),
-            Method::TrBdf2(m) => m.restart(sys, t, y, h, tol, stats),
+            Method::Bdf(m) => m.restart(sys, t, y, h, tol, stats),
         }
     }
 
@@ -209,7 +223,7 @@ impl Method {
     ) -> Result<(), StepError> {
         match self {
             Method::Dopri5(m) => m.step(sys, h_max, tol, stats),
-            Method::TrBdf2(m) => m.step(sys, h_max, tol, stats),
+            Method::Bdf(m) => m.step(sys, h_max, stats),
         }
     }
 }
@@ -239,7 +253,7 @@ impl Default for WorkCap {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Driver {
     pub method: Method,
     pub tol: Tolerance,
@@ -253,6 +267,29 @@ pub struct Driver {
     /// Never step past this time (the experiment's stop time, if any).
     pub t_stop: f64,
     pub(crate) y_start: State,
+}
+
+impl Clone for Driver {
+    /// A Dormand-Prince driver clones exactly. diffsol's solver cannot be cloned, so a BDF driver
+    /// clones into a restart point at its current state (see `Simulation::snapshot`).
+    fn clone(&self) -> Self {
+        let restart_point = matches!(self.method, Method::Bdf(_)) && !self.needs_restart;
+        Driver {
+            method: self.method.clone(),
+            tol: self.tol.clone(),
+            t: self.t,
+            needs_restart: self.needs_restart || restart_point,
+            pending: if restart_point { None } else { self.pending },
+            stats: self.stats,
+            cap: self.cap,
+            t_stop: self.t_stop,
+            y_start: if restart_point {
+                self.state()
+            } else {
+                self.y_start
+            },
+        }
+    }
 }
 
 impl Driver {
@@ -288,7 +325,7 @@ impl Driver {
     }
 
     /// Advances to t_end, handling every event on the way. `log` receives each event.
-    pub fn advance<S: System>(
+    pub fn advance<S: System + Clone + 'static>(
         &mut self,
         sys: &mut S,
         t_end: f64,
@@ -349,7 +386,7 @@ impl Driver {
         }
     }
 
-    fn restart<S: System>(
+    fn restart<S: System + Clone + 'static>(
         &mut self,
         sys: &S,
         t: f64,
@@ -372,6 +409,7 @@ impl Driver {
                 err,
             },
             StepError::StepTooSmall { t, h } => DriverError::StepTooSmall { t, h },
+            StepError::Solver { t, message } => DriverError::Solver { t, message },
         }
     }
 

@@ -80,6 +80,14 @@ impl Simulation {
         }
     }
 
+    /// diffsol's BDF cannot be copied: before its state is saved, the live simulation restarts
+    /// at the current point too, so the saved and the live one continue identically.
+    pub fn make_restart_point_if_needed(&mut self) {
+        if matches!(self.driver.method, super::Method::Bdf(_)) {
+            self.driver.invalidate();
+        }
+    }
+
     pub fn advance(
         &mut self,
         t_end: f64,

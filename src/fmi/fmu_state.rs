@@ -8,13 +8,13 @@
 //! rejected with a reason.
 
 use super::instance::Snapshot;
+use crate::driver::bdf::Bdf;
 use crate::driver::dopri5::Dopri5;
 use crate::driver::simulation::Simulation;
-use crate::driver::trbdf2::TrBdf2;
 use crate::driver::{Method, PendingEvent, Stats, WorkCap};
 use crate::model::contact::N_EVENTS;
 use crate::model::mesh::N_CONTROLLED;
-use crate::model::{Loads, State, NY};
+use crate::model::{Loads, NY};
 use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
@@ -103,14 +103,12 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
             m.rcont.iter().for_each(|r| w.fs(r));
             w.f(m.facold);
         }
-        Method::TrBdf2(m) => {
+        // diffsol's BDF is saved as a restart point (the driver then has needs_restart set).
+        Method::Bdf(m) => {
             w.u(2);
             w.fs(&[m.t, m.t_prev, m.h]);
-            for a in [&m.y, &m.f, &m.y_prev, &m.f_prev] {
-                w.fs(a);
-            }
-            w.fs(m.jac.as_slice());
-            w.b(m.jac_fresh);
+            w.fs(&m.y);
+            w.fs(&m.y_prev);
         }
     }
 }
@@ -178,14 +176,14 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
             Method::Dopri5(m)
         }
         2 => {
-            let mut m = TrBdf2::new();
-            [m.t, m.t_prev, m.h] = r.fs()?;
-            let arrays: [State; 4] = [r.fs()?, r.fs()?, r.fs()?, r.fs()?];
-            [m.y, m.f, m.y_prev, m.f_prev] = arrays;
-            let jac: [f64; NY * NY] = r.fs()?;
-            m.jac.as_mut_slice().copy_from_slice(&jac);
-            m.jac_fresh = r.b()?;
-            Method::TrBdf2(m)
+            let [t, t_prev, h] = r.fs()?;
+            let mut m = Bdf::at(t, r.fs()?, h);
+            m.t_prev = t_prev;
+            m.y_prev = r.fs()?;
+            if !d.needs_restart {
+                return Err("a BDF state must be a restart point".into());
+            }
+            Method::Bdf(m)
         }
         tag => return Err(format!("unknown integration method tag {tag}")),
     };
@@ -261,6 +259,8 @@ mod tests {
         };
         let mut sim = Simulation::new(&s.params, &s.inputs, 0.0, 1e-6).unwrap();
         sim.advance(3.3e-3, &mut |_, _| {}).unwrap();
+        // What fmi2GetFMUstate does before it saves (a restart point for BDF).
+        sim.make_restart_point_if_needed();
         s.sim = Some(sim);
         s
     }

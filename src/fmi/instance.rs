@@ -233,6 +233,12 @@ impl Slave for SpurGearMesh {
             .map_or(self.snap.start_time, |s| s.time())
     }
 
+    fn prepare_save(&mut self) {
+        if let Some(sim) = self.snap.sim.as_mut() {
+            sim.make_restart_point_if_needed();
+        }
+    }
+
     fn encode(&self, w: &mut Writer) {
         fmu_state::write(w, &self.snap)
     }

@@ -112,7 +112,7 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         return Err(err(
             "solver",
             p.solver,
-            "must be 1 (explicit Dormand-Prince) or 2 (implicit TR-BDF2)",
+            "must be 1 (explicit Dormand-Prince) or 2 (implicit BDF)",
         ));
     }
     if !(0..=2).contains(&p.contacts_per_flank) {
