@@ -2278,15 +2278,20 @@ fn random_call_sequences() {
         ))),
         source_file: Some(file!()),
         rng_algorithm: RngAlgorithm::ChaCha,
+        max_global_rejects: 1,
         ..Config::default()
     };
     let mut runner =
         TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &bytes));
     let t0 = Instant::now();
     let (ran, failing) = (AtomicU64::new(0), std::sync::atomic::AtomicBool::new(false));
+    let over = std::sync::atomic::AtomicBool::new(false);
     let result = runner.run(&sequence(), |ops| {
+        HEARTBEAT.store(now_ms(), Ordering::SeqCst);
         if t0.elapsed() > budget && !failing.load(Ordering::SeqCst) {
-            return Ok(());
+            // Ends the run: the first global reject aborts it (max_global_rejects = 1).
+            over.store(true, Ordering::SeqCst);
+            return Err(TestCaseError::reject("time budget reached"));
         }
         ran.fetch_add(1, Ordering::SeqCst);
         let r = run_sequence(&ops);
@@ -2318,6 +2323,7 @@ fn random_call_sequences() {
     drop(st);
     match result {
         Ok(()) => {}
+        Err(TestError::Abort(_)) if over.load(Ordering::SeqCst) => {}
         Err(TestError::Fail(why, ops)) => {
             panic!(
                 "fmi_fuzz: {why}\nminimal call sequence ({} calls):\n{ops:#?}",
