@@ -1,10 +1,11 @@
 //! The gear mesh as an ODE with modes (spec §4-§6): state, right-hand side, event functions,
 //! event handling, outputs and the energy balance.
 //!
-//! State (interface frame, forward positive): theta_A, dte, w_A, w_B, and two quadratures, the
-//! external work and the dissipated energy. dte = rAb theta_A - rBb theta_B is a state of its own
-//! rather than a difference of two large angles, so the penetration keeps full precision however
-//! far the wheels turn; theta_B is derived from it.
+//! State (interface frame, forward positive): theta_A, dte, w_A, v = d(dte)/dt, and two
+//! quadratures, the external work and the dissipated energy. dte = rAb theta_A - rBb theta_B and
+//! its rate v = rAb w_A - rBb w_B are states of their own rather than differences of two large
+//! numbers, so the penetration and the mesh velocity keep full precision and are under error
+//! control however fast and far the wheels turn; theta_B and w_B are derived from them.
 //!
 //! Modes (which pairs are gated, which flanks touch and press) change only in `handle_event`, at
 //! events the driver has located: inside an integration step the right-hand side is smooth.
@@ -20,7 +21,8 @@ pub type State = [f64; NY];
 pub const THETA_A: usize = 0;
 pub const DTE: usize = 1;
 pub const W_A: usize = 2;
-pub const W_B: usize = 3;
+/// The mesh's relative velocity d(dte)/dt = rAb w_A - rBb w_B.
+pub const DDTE: usize = 3;
 pub const W_EXT: usize = 4;
 pub const W_LOSS: usize = 5;
 /// Components under error control; the two quadratures do not feed back into the dynamics.
@@ -95,6 +97,7 @@ impl Mesh {
     pub fn new(p: &Params, inputs: &Inputs) -> Result<(Mesh, State), ModelError> {
         let geo = Geometry::new(p)?;
         let theta_a = p.dte_start / geo.r_ab;
+        let (geo_r_ab, geo_r_bb) = (geo.r_ab, geo.r_bb);
         let mut present = [false; SLOTS];
         present[0] = true;
         present[1] = geo.m_c >= 2;
@@ -128,7 +131,8 @@ impl Mesh {
             n_events: 0,
             e_start: 0.0,
         };
-        let y = [theta_a, p.dte_start, p.w_A_start, p.w_B_start, 0.0, 0.0];
+        let v = geo_r_ab * p.w_A_start - geo_r_bb * p.w_B_start;
+        let y = [theta_a, p.dte_start, p.w_A_start, v, 0.0, 0.0];
         mesh.init_signs(&y);
         mesh.check_range(&y)
             .map_err(|e| ModelError::new(format!("initial state: {e}")))?;
@@ -156,11 +160,16 @@ impl Mesh {
 
     /// Penetration of a flank and its rate: forward delta = dte, backward delta = -backlash - dte.
     pub fn flank_delta(&self, f: Flank, y: &State) -> (f64, f64) {
-        let ddte = self.geo.r_ab * y[W_A] - self.geo.r_bb * y[W_B];
+        let ddte = y[DDTE];
         match f {
             Flank::Forward => (y[DTE], ddte),
             Flank::Backward => (-self.backlash - y[DTE], -ddte),
         }
+    }
+
+    /// Speed of wheel B, from w_A and the mesh velocity.
+    pub fn w_b(&self, y: &State) -> f64 {
+        (self.geo.r_ab * y[W_A] - y[DDTE]) / self.geo.r_bb
     }
 
     pub fn s_contact(&self, k: usize, y: &State) -> f64 {
@@ -185,7 +194,7 @@ impl Mesh {
     /// Right-hand side with the current modes. Errors only when the Johnson law leaves its range.
     pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         let g = &self.geo;
-        let (w_a, w_b) = (y[W_A], y[W_B]);
+        let (w_a, w_b) = (y[W_A], self.w_b(y));
         let (mut tq_a, mut tq_b, mut p_loss) = (0.0, 0.0, 0.0);
         for f in [Flank::Forward, Flank::Backward] {
             if !self.flank_present(f) || !self.flank_on(f) {
@@ -224,7 +233,8 @@ impl Mesh {
         dy[THETA_A] = w_a;
         dy[DTE] = g.r_ab * w_a - g.r_bb * w_b;
         dy[W_A] = (l.tau_a + tq_a) / self.j_a;
-        dy[W_B] = (l.tau_b - l.c_load * w_b + tq_b) / self.j_b;
+        let acc_b = (l.tau_b - l.c_load * w_b + tq_b) / self.j_b;
+        dy[DDTE] = g.r_ab * dy[W_A] - g.r_bb * acc_b;
         dy[W_EXT] = l.tau_a * w_a + l.tau_b * w_b - l.c_load * w_b * w_b;
         dy[W_LOSS] = p_loss;
         Ok(())
@@ -471,7 +481,8 @@ impl Mesh {
 
     /// (E_kin + E_el + W_loss - W_ext - E_gate, E_kin, E_el).
     fn energy_terms(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
-        let e_kin = 0.5 * (self.j_a * y[W_A] * y[W_A] + self.j_b * y[W_B] * y[W_B]);
+        let w_b = self.w_b(y);
+        let e_kin = 0.5 * (self.j_a * y[W_A] * y[W_A] + self.j_b * w_b * w_b);
         let e_el = self.elastic_energy(y)?;
         Ok((
             e_kin + e_el + y[W_LOSS] - y[W_EXT] - self.e_gate,
@@ -505,13 +516,14 @@ impl Mesh {
         self.rhs(y, &mut dy)?;
         let l = &self.loads;
         let tau_mesh_a = dy[W_A] * self.j_a - l.tau_a;
-        let tau_mesh_b = dy[W_B] * self.j_b - l.tau_b + l.c_load * y[W_B];
+        let acc_b = (g.r_ab * dy[W_A] - dy[DDTE]) / g.r_bb;
+        let tau_mesh_b = acc_b * self.j_b - l.tau_b + l.c_load * self.w_b(y);
         let (balance, e_kin, e_el) = self.energy_terms(y)?;
         Ok(Outputs {
             theta_A: y[THETA_A],
             theta_B: (g.r_ab * y[THETA_A] - y[DTE]) / g.r_bb,
             w_A: y[W_A],
-            w_B: y[W_B],
+            w_B: self.w_b(y),
             dte: y[DTE],
             F_f1: force[0],
             F_f2: force[1],
@@ -562,27 +574,26 @@ impl Mesh {
     }
 
     /// Absolute error tolerances of the controlled components at a relative tolerance: 1 rad
-    /// for the angle and 1 rad/s for the speeds (relative control takes over above), and for
-    /// the penetration the static penetration of one pair under the contact force that the
-    /// current torques imply (floor 1e-12 m), so dte stays under control from milli-newton to
-    /// mega-newton loads.
+    /// for the angle and 1 rad/s for w_A (relative control takes over above). The penetration's
+    /// scale is the static penetration of one pair under the contact force that the current
+    /// torques imply (floor 1e-12 m), so dte stays under control from milli-newton to mega-newton
+    /// loads; the mesh velocity's scale is that penetration times the mesh's natural frequency
+    /// there, the velocity of a vibration of that amplitude.
     pub fn abs_tol(&self, rel_tol: f64) -> [f64; N_CONTROLLED] {
         let g = &self.geo;
         let force = self.loads.tau_a.abs() / g.r_ab + self.loads.tau_b.abs() / g.r_bb;
         let n = force / self.width;
         let delta = if n > 0.0 {
             // Eq. 5.1 at R = L: delta(N), monotone, no iteration needed for a scale.
-            n / (std::f64::consts::PI * g.e_star)
-                * ((4.0 * std::f64::consts::PI * g.e_star * g.l / n).ln() - 1.0)
+            n / (std::f64::consts::PI * g.e_star) * ((4.0 * std::f64::consts::PI * g.e_star * g.l / n).ln() - 1.0)
         } else {
             0.0
         };
-        let delta = if delta.is_finite() {
-            delta.max(1e-12)
-        } else {
-            1e-12
-        };
-        [rel_tol, rel_tol * delta, rel_tol, rel_tol]
+        let delta = if delta.is_finite() { delta.max(1e-12) } else { 1e-12 };
+        let k = self.width * johnson::stiffness(delta, g.l + delta, g.e_star).unwrap_or(0.0);
+        let omega = (k * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b)).sqrt();
+        let velocity = (delta * omega).max(1e-12);
+        [rel_tol, rel_tol * delta, rel_tol, rel_tol * velocity]
     }
 }
 
@@ -642,7 +653,8 @@ mod tests {
             assert!(m.flank_on(flank));
             let mut dy = [0.0; NY];
             m.rhs(&y, &mut dy).unwrap();
-            let p_mesh = (dy[W_A] * p.J_A) * y[W_A] + (dy[W_B] * p.J_B) * y[W_B];
+            let acc_b = (m.geo.r_ab * dy[W_A] - dy[DDTE]) / m.geo.r_bb;
+            let p_mesh = (dy[W_A] * p.J_A) * y[W_A] + (acc_b * p.J_B) * m.w_b(&y);
             let h = 1e-9;
             let mut y2 = y;
             for c in 0..NY {
