@@ -27,7 +27,6 @@ pub struct ModelInfo {
     pub author: String,
     pub start_time: f64,
     pub stop_time: f64,
-    pub tolerance: f64,
     pub step_size: f64,
     pub log_categories: Vec<[String; 2]>,
 }
@@ -223,7 +222,6 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         &[
             ("startTime", format_real(t.model.start_time)),
             ("stopTime", format_real(t.model.stop_time)),
-            ("tolerance", format_real(t.model.tolerance)),
             ("stepSize", format_real(t.model.step_size)),
         ],
     )));
