@@ -581,19 +581,21 @@ fn long_run_of_the_paper_scene_has_no_drift() {
             }
         }
     }
-    let median = |v: &[f64]| {
+    // The 10th percentile of the chunk times of a tenth: the speed when the (shared) machine
+    // lets the test run, insensitive to other load.
+    let low = |v: &[f64]| {
         let mut v = v.to_vec();
         v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        v[v.len() / 10]
     };
     let per_tenth = chunk_times.len() / 10;
     let (first, last) = (
-        median(&chunk_times[..per_tenth]),
-        median(&chunk_times[chunk_times.len() - per_tenth..]),
+        low(&chunk_times[..per_tenth]),
+        low(&chunk_times[chunk_times.len() - per_tenth..]),
     );
     eprintln!(
         "long run: {n} steps of {h} s to t = {t:.3} s; windows [{lo:.6}, {hi:.6}] m; \
-         s_f1, s_f2, s_b1, s_b2 ranges {seen:.6?}; median time per step {:.2} us (first tenth) \
+         s_f1, s_f2, s_b1, s_b2 ranges {seen:.6?}; time per step (10th percentile) {:.2} us (first tenth) \
          -> {:.2} us (last tenth); RSS per tenth {rss:?} kB; rhs evaluations at each tenth {work:?}",
         first * 1e6,
         last * 1e6
