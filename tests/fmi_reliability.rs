@@ -426,7 +426,6 @@ fn damaged_or_foreign_blobs_are_rejected_with_a_clear_message() {
 /// decoder checks the structure but not the values, so this fails today. Run with
 /// `cargo test --release --test fmi_reliability -- --ignored hostile`.
 #[test]
-#[ignore = "known gap: values in a checksum-valid blob are not validated (docs/reliability.md)"]
 fn hostile_blob_with_a_valid_checksum_is_rejected_or_harmless() {
     let _s = serial();
     let (_f, blob) = running_blob();
@@ -475,7 +474,6 @@ fn hostile_blob_with_a_valid_checksum_is_rejected_or_harmless() {
 /// fmi2OK, in initialization mode and after fmi2ExitInitializationMode returned fmi2OK. Run with
 /// `cargo test --release --test fmi_reliability -- --ignored huge`.
 #[test]
-#[ignore = "known bug: outputs are checked for finiteness only after fmi2DoStep (docs/reliability.md)"]
 fn huge_finite_parameters_give_finite_outputs_or_an_error() {
     let _s = serial();
     let mut problems = Vec::new();

@@ -228,6 +228,9 @@ impl Method {
     }
 }
 
+/// How many accepted steps a computed step limit serves (see `Driver::step_limit`).
+const STEP_LIMIT_AGE: u64 = 8;
+
 /// An event found inside the method's current step, not yet handled.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PendingEvent {
@@ -267,6 +270,10 @@ pub struct Driver {
     /// Never step past this time (the experiment's stop time, if any).
     pub t_stop: f64,
     pub(crate) y_start: State,
+    /// `System::max_step` as last computed: it costs a contact-law evaluation, and the limits it
+    /// holds (stiffness, contact speed) change slowly, so it is renewed at restarts and every
+    /// `STEP_LIMIT_AGE` accepted steps. NaN: not computed yet.
+    pub(crate) step_limit: f64,
 }
 
 impl Clone for Driver {
@@ -288,6 +295,11 @@ impl Clone for Driver {
             } else {
                 self.y_start
             },
+            step_limit: if restart_point {
+                f64::NAN
+            } else {
+                self.step_limit
+            },
         }
     }
 }
@@ -304,6 +316,7 @@ impl Driver {
             cap: WorkCap::default(),
             t_stop: f64::INFINITY,
             y_start: y0,
+            step_limit: f64::NAN,
         }
     }
 
@@ -371,10 +384,11 @@ impl Driver {
                     events: self.cap.events,
                 });
             }
-            let explicit = matches!(self.method, Method::Dopri5(_));
-            let h_max = sys
-                .max_step(self.method.y(), explicit)
-                .min(self.t_stop - self.method.t());
+            if self.step_limit.is_nan() || self.stats.steps % STEP_LIMIT_AGE == 0 {
+                let explicit = matches!(self.method, Method::Dopri5(_));
+                self.step_limit = sys.max_step(self.method.y(), explicit);
+            }
+            let h_max = self.step_limit.min(self.t_stop - self.method.t());
             let h_max = if h_max > 0.0 { h_max } else { f64::INFINITY };
             self.method
                 .step(sys, h_max, &self.tol, &mut self.stats)
@@ -399,6 +413,7 @@ impl Driver {
         self.needs_restart = false;
         self.pending = None;
         self.y_start = *y;
+        self.step_limit = f64::NAN;
         Ok(())
     }
 

@@ -94,6 +94,7 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
     }
     w.f(d.t_stop);
     w.fs(&d.y_start);
+    w.f(d.step_limit);
     match &d.method {
         Method::Dopri5(m) => {
             w.u(1);
@@ -111,6 +112,48 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
             w.fs(&m.y_prev);
         }
     }
+}
+
+/// The checksum only proves the bytes arrived intact; a state edited with a recomputed checksum
+/// must not bring NaN, infinity or an invalid tolerance into the instance.
+fn check_values(s: &Simulation) -> Result<(), String> {
+    let d = &s.driver;
+    let m = &s.mesh;
+    let (t, t_prev, h, y) = match &d.method {
+        Method::Dopri5(x) => (x.t, x.t_prev, x.h, x.y),
+        Method::Bdf(x) => (x.t, x.t_prev, x.h, x.y),
+    };
+    let mut values = vec![d.t, t, t_prev, m.e_gate, m.e_start];
+    values.extend_from_slice(&y);
+    values.extend_from_slice(&d.y_start);
+    values.extend_from_slice(&m.sigma);
+    values.extend_from_slice(&[
+        m.loads.tau_a,
+        m.loads.tau_b,
+        m.loads.c_load,
+        m.loads.chi,
+        m.loads.mu,
+        m.loads.v_reg,
+    ]);
+    if let Method::Dopri5(x) = &d.method {
+        values.extend_from_slice(&x.k1);
+        x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+    }
+    if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
+        return Err(format!(
+            "a value of the simulation state is not finite ({bad})"
+        ));
+    }
+    let tol_ok = d.tol.rtol >= 1e-14
+        && d.tol.rtol <= 0.1
+        && d.tol.atol.iter().all(|a| *a > 0.0 && a.is_finite());
+    if !tol_ok || !(h >= 0.0) || !(d.t_stop >= d.t) {
+        return Err(format!(
+            "invalid integrator settings (rel_tol {}, step {h}, stop time {})",
+            d.tol.rtol, d.t_stop
+        ));
+    }
+    Ok(())
 }
 
 fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simulation, String> {
@@ -163,6 +206,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     };
     d.t_stop = r.f()?;
     d.y_start = r.fs::<NY>()?;
+    d.step_limit = r.f()?;
     d.method = match r.u()? {
         1 => {
             let mut m = Dopri5::new();
@@ -187,6 +231,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
         }
         tag => return Err(format!("unknown integration method tag {tag}")),
     };
+    check_values(&s)?;
     Ok(s)
 }
 
@@ -209,6 +254,19 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     let start_time = r.f()?;
     let stop_time = r.opt()?;
     let tolerance = r.opt()?;
+    if !start_time.is_finite() || stop_time.is_some_and(|t| !(t >= start_time && t.is_finite())) {
+        return Err(format!(
+            "invalid experiment times (start {start_time}, stop {stop_time:?})"
+        ));
+    }
+    if tolerance.is_some_and(|t| !(1e-14..=0.1).contains(&t)) {
+        return Err(format!("invalid experiment tolerance {tolerance:?}"));
+    }
+    crate::model::geometry::validate(&params)
+        .map_err(|e| format!("parameters in the state: {e}"))?;
+    if let Some(bad) = [inputs.tau_A, inputs.tau_B].iter().find(|x| !x.is_finite()) {
+        return Err(format!("an input in the state is not finite ({bad})"));
+    }
     let sim = if r.b()? {
         Some(read_sim(r, &params, &inputs, start_time)?)
     } else {

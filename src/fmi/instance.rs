@@ -195,11 +195,11 @@ impl Slave for SpurGearMesh {
         self.outputs = None;
         let failure = match result {
             Ok(()) => match self.outputs() {
-                Ok(o) if outputs_finite(&o) => None,
-                Ok(_) => Some(error(format!(
-                    "the step to {t_end} gave a non-finite output; state kept at t = {t}"
-                ))),
-                Err(f) => Some(f),
+                Ok(_) => None,
+                Err(f) => Some(Failure {
+                    message: format!("{}; state kept at t = {t}", f.message),
+                    ..f
+                }),
             },
             Err(e @ DriverError::Law { .. }) => Some(error(format!("{e}; state kept at t = {t}"))),
             Err(e) => Some(Failure {
@@ -290,13 +290,21 @@ impl SpurGearMesh {
         Ok(self.snap.sim.as_mut().expect("just built"))
     }
 
-    pub fn outputs(&mut self) -> Result<Outputs, Failure> {
-        if let Some(o) = &self.outputs {
-            return Ok(o.clone());
+    /// Outputs at the current time, computed once after each change and then read in place.
+    /// A non-finite one (e.g. from absurd start values) is an error naming it: no NaN or
+    /// infinity ever reaches a master.
+    pub fn outputs(&mut self) -> Result<&Outputs, Failure> {
+        if self.outputs.is_none() {
+            let o = self.build()?.outputs().map_err(|e| error(e.to_string()))?;
+            if let Some((name, x)) = first_non_finite(&o) {
+                return Err(error(format!(
+                    "output {name} = {x} is not finite at t = {}: check the parameters and start values",
+                    self.time()
+                )));
+            }
+            self.outputs = Some(o);
         }
-        let o = self.build()?.outputs().map_err(|e| error(e.to_string()))?;
-        self.outputs = Some(o.clone());
-        Ok(o)
+        Ok(self.outputs.as_ref().expect("just computed"))
     }
 
     fn value<T>(
@@ -310,7 +318,7 @@ impl SpurGearMesh {
         let got = match v.info().causality {
             Causality::Parameter => param(&self.snap.params),
             Causality::Input => input(&self.snap.inputs),
-            Causality::Output => output(&self.outputs()?),
+            Causality::Output => output(self.outputs()?),
             Causality::CalculatedParameter => calc(&self.build()?.mesh.calculated()),
         };
         Ok(got.expect("the generated table gives every variable a getter of its type"))
@@ -383,9 +391,9 @@ fn settable(v: Var, shown: &dyn std::fmt::Display, running: bool) -> Result<(), 
     }
 }
 
-fn outputs_finite(o: &Outputs) -> bool {
+fn first_non_finite(o: &Outputs) -> Option<(&'static str, f64)> {
     crate::variables::VARIABLES
         .iter()
-        .filter_map(|info| o.get_real(info.var))
-        .all(f64::is_finite)
+        .filter_map(|info| o.get_real(info.var).map(|x| (info.name, x)))
+        .find(|(_, x)| !x.is_finite())
 }

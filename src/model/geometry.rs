@@ -67,6 +67,12 @@ fn err(var: &str, value: impl std::fmt::Display, why: &str) -> ModelError {
 
 /// Checks every parameter on its own; `Geometry::new` then checks how they fit together.
 pub fn validate(p: &Params) -> Result<(), ModelError> {
+    // Every Real parameter is finite, used by the chosen geometry or not: none may reach a master.
+    for info in crate::variables::VARIABLES {
+        if let Some(x) = p.get_real(info.var).filter(|x| !x.is_finite()) {
+            return Err(err(info.name, x, "must be finite"));
+        }
+    }
     let positive = [
         ("width", p.width),
         ("E_A", p.E_A),
