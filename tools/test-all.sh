@@ -8,5 +8,7 @@ echo "== cargo test (release: the integration tests simulate real scenes)"
 cargo test --workspace --release
 echo "== package the FMU"
 cargo run -q -p fmu-packaging --release
+echo "== memcheck of the C API (valgrind)"
+bash tools/reliability.sh
 echo "== FMU tests through FMPy"
 "$py" -m pytest -q tests/python

@@ -585,11 +585,16 @@ impl Mesh {
         let n = force / self.width;
         let delta = if n > 0.0 {
             // Eq. 5.1 at R = L: delta(N), monotone, no iteration needed for a scale.
-            n / (std::f64::consts::PI * g.e_star) * ((4.0 * std::f64::consts::PI * g.e_star * g.l / n).ln() - 1.0)
+            n / (std::f64::consts::PI * g.e_star)
+                * ((4.0 * std::f64::consts::PI * g.e_star * g.l / n).ln() - 1.0)
         } else {
             0.0
         };
-        let delta = if delta.is_finite() { delta.max(1e-12) } else { 1e-12 };
+        let delta = if delta.is_finite() {
+            delta.max(1e-12)
+        } else {
+            1e-12
+        };
         let k = self.width * johnson::stiffness(delta, g.l + delta, g.e_star).unwrap_or(0.0);
         let omega = (k * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b)).sqrt();
         let velocity = (delta * omega).max(1e-12);
