@@ -278,7 +278,7 @@ pub struct Driver {
 
 impl Clone for Driver {
     /// A Dormand-Prince driver clones exactly. diffsol's solver cannot be cloned, so a BDF driver
-    /// clones into a restart point at its current state (see `Simulation::snapshot`).
+    /// clones into a restart point at its current state (see `Simulation::make_restart_point_if_needed`).
     fn clone(&self) -> Self {
         let restart_point = matches!(self.method, Method::Bdf(_)) && !self.needs_restart;
         Driver {
