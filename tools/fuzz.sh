@@ -5,10 +5,12 @@
 # tests/fmi_fuzz.proptest-regressions (commit that file; add the sequence to corpus() if it
 # deserves a name).
 #
-# Usage: bash tools/fuzz.sh [seconds] [strict]    (default 600 s; "strict" sets FMI_FUZZ_STRICT=1)
+# Usage: bash tools/fuzz.sh [seconds] [relaxed]   (default 600 s; instances restored from hostile
+# blobs are held to every invariant; "relaxed" sets FMI_FUZZ_STRICT=0 to check them only for
+# crashes, panics, hangs, the state machine and logging)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-600}
-[ "${2:-}" = strict ] && export FMI_FUZZ_STRICT=1
+[ "${2:-}" = relaxed ] && export FMI_FUZZ_STRICT=0
 FMI_FUZZ_CASES=100000000 FMI_FUZZ_SECONDS=$seconds FMI_FUZZ_SEED=${FMI_FUZZ_SEED:-random} \
   cargo test --release --test fmi_fuzz -- random_call_sequences --nocapture
