@@ -115,6 +115,7 @@ fn main() {
             let i = Inputs {
                 tau_A: 100.0,
                 tau_B: 0.0,
+                ..Inputs::default()
             };
             let direct: Vec<f64> = (0..reps)
                 .map(|_| {

@@ -21,6 +21,7 @@ fn main() {
         &Inputs {
             tau_A: 100.0,
             tau_B: 0.0,
+            ..Inputs::default()
         },
         0.0,
         rtol,

@@ -9,6 +9,7 @@ fn run(p: &Params, tau: f64, rtol: f64, h: f64, t_end: f64) -> (Vec<f64>, u64) {
         &Inputs {
             tau_A: tau,
             tau_B: 0.0,
+            ..Inputs::default()
         },
         0.0,
         rtol,

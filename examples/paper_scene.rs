@@ -16,6 +16,7 @@ fn main() {
     let i = Inputs {
         tau_A: 100.0,
         tau_B: 0.0,
+        ..Inputs::default()
     };
     let t0 = std::time::Instant::now();
     let mut sim = Simulation::new(&p, &i, 0.0, rtol).unwrap();

@@ -265,6 +265,8 @@ fn loads_of(mesh: &Mesh, inputs: &Inputs) -> Loads {
     Loads {
         tau_a: inputs.tau_A,
         tau_b: inputs.tau_B,
+        alpha_housing: inputs.alpha_housing,
+        a_housing_x: inputs.a_housing_x,
         ..mesh.loads
     }
 }
@@ -484,7 +486,7 @@ impl Naive {
             match m.iter().position(|&x| x < 0.0) {
                 Some(i) => {
                     self.mesh
-                        .handle_event(i, &self.y)
+                        .handle_event(i, &mut self.y)
                         .map_err(|e| e.to_string())?;
                     self.counters.events += 1;
                 }
@@ -548,7 +550,7 @@ fn run_naive(c: &Config) -> RunResult {
         if let Some(tab) = &c.table {
             tab.apply(ts[k], &mut inputs);
             let l = loads_of(&nv.mesh, &inputs);
-            nv.mesh.set_loads(l, &nv.y);
+            nv.mesh.set_loads(l, &mut nv.y);
         }
         let h = (ts[k + 1] - ts[k]) / c.substeps as f64;
         if let Err(e) = nv.advance(h, c.substeps) {

@@ -18,6 +18,7 @@ fn main() {
     let i = Inputs {
         tau_A: 100.0,
         tau_B: 0.0,
+        ..Inputs::default()
     };
     let mut sim = Simulation::new(&p, &i, 0.0, 1e-8).unwrap();
     let n = 60;

@@ -19,6 +19,7 @@ fn paper(chi: f64) -> (Params, Inputs) {
         Inputs {
             tau_A: 100.0,
             tau_B: 0.0,
+            ..Inputs::default()
         },
     )
 }
@@ -72,6 +73,7 @@ fn static_load_single_and_double_contact() {
         let i = Inputs {
             tau_A: tau_a,
             tau_B: -tau_a * g.r_bb / g.r_ab,
+            ..Inputs::default()
         };
         let rtol = 1e-10;
         let out = run(&p, &i, rtol, 1e-3, 0.01);
@@ -161,6 +163,7 @@ fn energy_balance_holds_and_converges() {
         let i = Inputs {
             tau_A: 100.0,
             tau_B: 0.0,
+            ..Inputs::default()
         };
         let mut residuals = Vec::new();
         for rtol in [1e-6, 1e-9] {

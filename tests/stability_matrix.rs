@@ -208,6 +208,7 @@ fn driver_run(case: &Case, solver: i32, rel_tol: f64) -> Option<Vec<[f64; 3]>> {
     let mut i = Inputs {
         tau_A: (case.tau_a)(0.0) * case.tau_scale,
         tau_B: 0.0,
+        ..Inputs::default()
     };
     let mut sim = Simulation::new(&p, &i, 0.0, rel_tol).ok()?;
     let n = (case.t_end / case.comm_step).round() as usize;

@@ -15,7 +15,7 @@
 //!   continues bit-identically.
 
 use super::{Stats, StepError, System, Tolerance};
-use crate::model::mesh::LawOutOfRange;
+use crate::model::mesh::{LawOutOfRange, CONTROLLED};
 use crate::model::{State, NY};
 use diffsol::{
     Bdf as DiffsolBdf, Closure, ConstantClosure, NalgebraLU, NalgebraMat, NalgebraVec, OdeBuilder,
@@ -62,16 +62,18 @@ struct Shared {
     /// Below these magnitudes a component counts as small (atol/rtol): the FD increment scale.
     fd_scale: State,
     fd: RefCell<(bool, State, State)>,
+    /// The components in use (a prefix of `State`): diffsol sees only these.
+    n: usize,
 }
 
 impl Shared {
     fn eval(&self, y: &[f64], dy: &mut [f64]) -> bool {
         self.rhs_evals.set(self.rhs_evals.get() + 1);
         let (mut ys, mut d) = ([0.0; NY], [0.0; NY]);
-        ys.copy_from_slice(y);
+        ys[..self.n].copy_from_slice(y);
         match (self.model)(&ys, &mut d) {
             Ok(()) => {
-                dy.copy_from_slice(&d);
+                dy.copy_from_slice(&d[..self.n]);
                 true
             }
             Err(e) => {
@@ -92,10 +94,11 @@ impl Shared {
     /// builds the dense Jacobian column by column at one x, so f(x) is cached.
     fn jac_mul(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         let mut c = self.fd.borrow_mut();
-        if !(c.0 && c.1.as_slice() == x) {
-            c.1.copy_from_slice(x);
+        let n = self.n;
+        if !(c.0 && &c.1[..n] == x) {
+            c.1[..n].copy_from_slice(x);
             let mut fx = [0.0; NY];
-            self.eval_poison(x, &mut fx);
+            self.eval_poison(x, &mut fx[..n]);
             c.2 = fx;
             c.0 = true;
         }
@@ -104,15 +107,18 @@ impl Shared {
             out.fill(0.0);
             return;
         }
-        let s = (0..NY)
+        let s = (0..n)
             .map(|i| x[i].abs().max(self.fd_scale[i]) * v[i].abs())
             .fold(0.0f64, f64::max);
         let s = f64::EPSILON.sqrt() * s / (vmax * vmax);
         for sign in [1.0, -1.0] {
-            let xp: State = std::array::from_fn(|i| x[i] + sign * s * v[i]);
+            let mut xp = [0.0; NY];
+            for i in 0..n {
+                xp[i] = x[i] + sign * s * v[i];
+            }
             let mut fp = [0.0; NY];
-            if self.eval(&xp, &mut fp) {
-                for i in 0..NY {
+            if self.eval(&xp[..n], &mut fp[..n]) {
+                for i in 0..n {
                     out[i] = sign * (fp[i] - c.2[i]) / s;
                 }
                 return;
@@ -206,9 +212,13 @@ impl Bdf {
         sys.rhs(y, &mut dy).map_err(StepError::Law)?;
         stats.rhs_evals += 1;
         let model = sys.clone();
+        let n = sys.dim();
+        // The quadratures (external work, losses; smooth integrands) get 1 J as their scale.
         let mut fd_scale = [1.0; NY];
-        for (i, a) in tol.atol.iter().enumerate() {
-            fd_scale[i] = a / tol.rtol;
+        let mut atol = vec![tol.rtol; n];
+        for (j, &i) in CONTROLLED[..tol.n_controlled].iter().enumerate() {
+            fd_scale[i] = tol.atol[j] / tol.rtol;
+            atol[i] = tol.atol[j];
         }
         let shared = Rc::new(Shared {
             model: Box::new(move |y, dy| model.rhs(y, dy)),
@@ -217,19 +227,17 @@ impl Bdf {
             last_error: RefCell::new(None),
             fd_scale,
             fd: RefCell::new((false, [0.0; NY], [0.0; NY])),
+            n,
         });
         let (s1, s2, s3) = (shared.clone(), shared.clone(), shared.clone());
         let rhs: RhsFn = Box::new(move |x, _p, _t, out| s1.eval_poison(x, out));
         let jac: JacFn = Box::new(move |x, _p, _t, v, out| s2.jac_mul(x, v, out));
-        let init: InitFn = Box::new(move |_p, _t, out| out.copy_from_slice(&s3.y0));
-        // The quadratures (external work, losses; smooth integrands) get 1 J as their scale.
-        let mut atol = [tol.rtol; NY];
-        atol[..tol.atol.len()].copy_from_slice(&tol.atol);
+        let init: InitFn = Box::new(move |_p, _t, out| out.copy_from_slice(&s3.y0[..s3.n]));
         let mut problem = OdeBuilder::<M>::new()
             .rtol(tol.rtol)
             .atol(atol)
             .rhs_implicit(rhs, jac)
-            .init(init, NY)
+            .init(init, n)
             .build()
             .map_err(|e| stop_error(t, format!("building the BDF problem: {e}")))?;
         problem.t0 = t;
@@ -334,10 +342,11 @@ impl Bdf {
                 let t_new = st.t;
                 let y_new = st.y.batch_as_slice(0);
                 let mut y_arr = [0.0; NY];
-                y_arr.copy_from_slice(y_new);
+                y_arr[..shared.n].copy_from_slice(y_new);
                 let mut check = [0.0; NY];
                 // Newton's last iterate is never evaluated by diffsol: check it is in range.
-                let ok = y_arr.iter().all(|x| x.is_finite()) && shared.eval(&y_arr, &mut check);
+                let ok = y_arr.iter().all(|x| x.is_finite())
+                    && shared.eval(&y_arr[..shared.n], &mut check[..shared.n]);
                 if ok {
                     self.t_prev = self.t;
                     self.t_int_prev = self.t_int;
@@ -357,11 +366,12 @@ impl Bdf {
                 if h_retry.abs() < min_step.max(16.0 * f64::EPSILON * self.t_int.abs()) {
                     break;
                 }
+                let n = shared.n;
                 let mut dy = [0.0; NY];
-                shared.eval(&self.y, &mut dy);
+                shared.eval(&self.y[..n], &mut dy[..n]);
                 let sm = s.state_mut();
-                sm.y.batch_as_mut_slice(0).copy_from_slice(&self.y);
-                sm.dy.batch_as_mut_slice(0).copy_from_slice(&dy);
+                sm.y.batch_as_mut_slice(0).copy_from_slice(&self.y[..n]);
+                sm.dy.batch_as_mut_slice(0).copy_from_slice(&dy[..n]);
                 *sm.t = self.t_int;
                 *sm.h = h_retry;
                 s.set_stop_time(t_limit)
@@ -385,14 +395,14 @@ impl Bdf {
         if t <= self.t_int_prev {
             return self.y_prev;
         }
-        let Some(cell) = self.cell.as_ref() else {
+        let (Some(cell), Some(shared)) = (self.cell.as_ref(), self.shared.as_ref()) else {
             return self.y;
         };
-        let mut v = V::zeros(NY, Default::default());
+        let mut v = V::zeros(shared.n, Default::default());
         match cell.with_dependent(|_, s| s.interpolate_inplace(t, &mut v)) {
             Ok(()) => {
                 let mut out = [0.0; NY];
-                out.copy_from_slice(v.batch_as_slice(0));
+                out[..shared.n].copy_from_slice(v.batch_as_slice(0));
                 out
             }
             // Only after a failed, rolled-back step: linear between the accepted points.

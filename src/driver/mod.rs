@@ -10,7 +10,7 @@ pub mod dopri5;
 pub mod simulation;
 
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::{EventReport, LawOutOfRange, N_CONTROLLED};
+use crate::model::mesh::{EventReport, LawOutOfRange, CONTROLLED, N_CONTROLLED};
 use crate::model::{State, NY};
 
 /// What the driver needs of a model.
@@ -19,12 +19,15 @@ pub trait System {
     /// Signed distance of every event function to its crossing: >= 0 until it crosses.
     fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]);
     fn margin(&self, i: usize, y: &State) -> f64;
-    fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange>;
+    /// Applies event i at y; the event may change y (an impact changes speeds).
+    fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange>;
     /// Checks an accepted state against limits the right-hand side does not see.
     fn check_state(&self, y: &State) -> Result<(), LawOutOfRange>;
     /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
     /// explicit method stays inside its stability region.
     fn max_step(&self, y: &State, explicit: bool) -> f64;
+    /// The number of state components in use, a prefix of `State`.
+    fn dim(&self) -> usize;
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -40,7 +43,9 @@ pub struct Stats {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tolerance {
     pub rtol: f64,
+    /// Absolute tolerances of the components `CONTROLLED[..n_controlled]`.
     pub atol: [f64; N_CONTROLLED],
+    pub n_controlled: usize,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -100,12 +105,12 @@ impl std::fmt::Display for DriverError {
 /// Weighted RMS norm over the controlled components.
 pub fn error_norm(e: &State, y0: &State, y1: &State, tol: &Tolerance) -> f64 {
     let mut sum = 0.0;
-    for i in 0..N_CONTROLLED {
-        let sk = tol.atol[i] + tol.rtol * y0[i].abs().max(y1[i].abs());
+    for (j, &i) in CONTROLLED[..tol.n_controlled].iter().enumerate() {
+        let sk = tol.atol[j] + tol.rtol * y0[i].abs().max(y1[i].abs());
         let r = e[i] / sk;
         sum += r * r;
     }
-    (sum / N_CONTROLLED as f64).sqrt()
+    (sum / tol.n_controlled as f64).sqrt()
 }
 
 /// Smallest meaningful step at time t: below it t + h == t in floating point, or nearly.
@@ -361,9 +366,9 @@ impl Driver {
                     return Ok(());
                 }
                 self.pending = None;
-                let y = self.method.interpolate(ev.t);
+                let mut y = self.method.interpolate(ev.t);
                 let report = sys
-                    .handle_event(ev.index, &y)
+                    .handle_event(ev.index, &mut y)
                     .map_err(|err| DriverError::Law { t: ev.t, err })?;
                 self.stats.events += 1;
                 log(ev.t, &report);

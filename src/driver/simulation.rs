@@ -20,7 +20,7 @@ impl System for Mesh {
     fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
         Mesh::check_state(self, y)
     }
-    fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange> {
+    fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange> {
         Mesh::handle_event(self, i, y)
     }
     /// A quarter of a base pitch of contact travel, so no step passes a whole gate or window;
@@ -42,6 +42,9 @@ impl System for Mesh {
         }
         travel
     }
+    fn dim(&self) -> usize {
+        Mesh::dim(self)
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -61,6 +64,7 @@ impl Simulation {
         let tol = Tolerance {
             rtol: rel_tol,
             atol: mesh.abs_tol(rel_tol),
+            n_controlled: mesh.n_controlled(),
         };
         let driver = Driver::new(Method::from_solver(p.solver), tol, t0, y0);
         Ok(Simulation { mesh, driver })
@@ -74,8 +78,10 @@ impl Simulation {
     pub fn set_loads(&mut self, loads: Loads) {
         if loads != self.mesh.loads {
             self.driver.invalidate();
-            let y = self.driver.state();
-            self.mesh.set_loads(loads, &y);
+            let mut y = self.driver.state();
+            self.mesh.set_loads(loads, &mut y);
+            // A rigid lock released by the new loads keeps the state; only modes changed.
+            self.driver.y_start = y;
             self.driver.tol.atol = self.mesh.abs_tol(self.driver.tol.rtol);
         }
     }

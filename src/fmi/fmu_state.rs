@@ -19,7 +19,7 @@ use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
 /// The version of the payload below (the envelope's format version).
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Parameters or inputs, in the table's order.
 fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
@@ -65,11 +65,21 @@ fn read_vars(
 fn write_sim(w: &mut Writer, s: &Simulation) {
     let m = &s.mesh;
     let l = &m.loads;
-    w.fs(&[l.tau_a, l.tau_b, l.c_load, l.chi, l.mu, l.v_reg]);
+    w.fs(&[
+        l.tau_a,
+        l.tau_b,
+        l.c_load,
+        l.chi,
+        l.mu,
+        l.v_reg,
+        l.alpha_housing,
+        l.a_housing_x,
+    ]);
     w.fs(&m.sigma);
     m.sign.iter().for_each(|&b| w.b(b));
     w.f(m.e_gate);
     w.u(m.n_events);
+    w.u(m.n_impacts);
     w.f(m.e_start);
     let d = &s.driver;
     w.f(d.tol.rtol);
@@ -134,6 +144,8 @@ fn check_values(s: &Simulation) -> Result<(), String> {
         m.loads.chi,
         m.loads.mu,
         m.loads.v_reg,
+        m.loads.alpha_housing,
+        m.loads.a_housing_x,
     ]);
     if let Method::Dopri5(x) = &d.method {
         values.extend_from_slice(&x.k1);
@@ -159,7 +171,7 @@ fn check_values(s: &Simulation) -> Result<(), String> {
 fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simulation, String> {
     let mut s = Simulation::new(p, i, start, p.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
-    let l: [f64; 6] = r.fs()?;
+    let l: [f64; 8] = r.fs()?;
     let m = &mut s.mesh;
     m.loads = Loads {
         tau_a: l[0],
@@ -168,6 +180,8 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
         chi: l[3],
         mu: l[4],
         v_reg: l[5],
+        alpha_housing: l[6],
+        a_housing_x: l[7],
     };
     m.sigma = r.fs()?;
     for b in m.sign.iter_mut() {
@@ -175,6 +189,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     }
     m.e_gate = r.f()?;
     m.n_events = r.u()?;
+    m.n_impacts = r.u()?;
     m.e_start = r.f()?;
     let d = &mut s.driver;
     d.tol.rtol = r.f()?;
@@ -314,6 +329,7 @@ mod tests {
         s.inputs = Inputs {
             tau_A: 100.0,
             tau_B: -3.0,
+            ..Inputs::default()
         };
         let mut sim = Simulation::new(&s.params, &s.inputs, 0.0, 1e-6).unwrap();
         sim.advance(3.3e-3, &mut |_, _| {}).unwrap();

@@ -263,15 +263,7 @@ impl SpurGearMesh {
     }
 
     fn loads(&self) -> Loads {
-        let (p, i) = (&self.snap.params, &self.snap.inputs);
-        Loads {
-            tau_a: i.tau_A,
-            tau_b: i.tau_B,
-            c_load: p.c_load,
-            chi: p.chi,
-            mu: p.mu,
-            v_reg: p.v_reg,
-        }
+        Loads::new(&self.snap.params, &self.snap.inputs)
     }
 
     /// Builds the simulation from the parameters (at the end of initialization, or earlier when

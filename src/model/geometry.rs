@@ -91,6 +91,9 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         ("chi", p.chi),
         ("mu", p.mu),
         ("c_load", p.c_load),
+        ("slider_stiffness", p.slider_stiffness),
+        ("slider_damping", p.slider_damping),
+        ("slider_mass", p.slider_mass),
     ];
     for (name, v) in non_negative {
         if !(v >= 0.0 && v.is_finite()) {
@@ -128,6 +131,17 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
             "must be 0 (automatic), 1 or 2",
         ));
     }
+    if !(1..=2).contains(&p.contact_model) {
+        return Err(err(
+            "contact_model",
+            p.contact_model,
+            "must be 1 (Johnson compliance) or 2 (rigid); 3 (tooth structure) is not available yet",
+        ));
+    }
+    if !(0.0..=1.0).contains(&p.restitution) {
+        return Err(err("restitution", p.restitution, "must lie in [0, 1]"));
+    }
+    crate::model::rig::Slider::from_params(p)?;
     for (name, z) in [("zA", p.zA), ("zB", p.zB)] {
         if z < 3 {
             return Err(err(name, z, "a wheel needs at least 3 teeth"));

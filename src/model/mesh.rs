@@ -1,22 +1,26 @@
-//! The gear mesh as an ODE with modes (spec §4-§6): state, right-hand side, event functions,
-//! event handling, outputs and the energy balance.
+//! The gear mesh as an ODE with modes (spec §4-§6, rig-and-modes.md): state, right-hand side,
+//! event functions, event handling, outputs and the energy balance.
 //!
-//! State (interface frame, forward positive): theta_A, dte, w_A, v = d(dte)/dt, and two
-//! quadratures, the external work and the dissipated energy. dte = rAb theta_A - rBb theta_B and
-//! its rate v = rAb w_A - rBb w_B are states of their own rather than differences of two large
-//! numbers, so the penetration and the mesh velocity keep full precision and are under error
-//! control however fast and far the wheels turn; theta_B and w_B are derived from them.
+//! State (interface frame, forward positive): theta_A, dte, w_A, v = d(dte)/dt, two quadratures
+//! (the external work and the dissipated energy), and with a slider its displacement x_S and
+//! speed. dte = rAb theta_A - rBb theta_B and its rate v = rAb w_A - rBb w_B are states of their
+//! own rather than differences of two large numbers, so the penetration and the mesh velocity
+//! keep full precision and are under error control however fast and far the wheels turn;
+//! theta_B and w_B are derived from them.
 //!
-//! Modes (which pairs are gated, which flanks touch and press) change only in `handle_event`, at
-//! events the driver has located: inside an integration step the right-hand side is smooth.
+//! Modes (which pairs are gated, which flanks touch and press, rigid locks) change only in
+//! `handle_event`, at events the driver has located: inside an integration step the right-hand
+//! side is smooth.
 
 use super::contact::{self, slot_flank, EventFn, Flank, N_EVENTS, SLOTS, SLOT_NAMES};
 use super::geometry::Geometry;
 use super::johnson::{self, OutOfRange};
+use super::rig::{self, Slider};
+use super::rigid::{self, Impact};
 use super::ModelError;
 use crate::variables::{Calculated, Inputs, Outputs, Params};
 
-pub const NY: usize = 6;
+pub const NY: usize = 8;
 pub type State = [f64; NY];
 pub const THETA_A: usize = 0;
 pub const DTE: usize = 1;
@@ -25,8 +29,13 @@ pub const W_A: usize = 2;
 pub const DDTE: usize = 3;
 pub const W_EXT: usize = 4;
 pub const W_LOSS: usize = 5;
-/// Components under error control; the two quadratures do not feed back into the dynamics.
-pub const N_CONTROLLED: usize = 4;
+/// The slider's displacement and speed (zero and constant without a slider).
+pub const X_S: usize = 6;
+pub const V_S: usize = 7;
+/// Components under error control, at most; the quadratures do not feed back into the dynamics.
+pub const N_CONTROLLED: usize = 6;
+/// Their indices: the first four always, the slider's two when there is one.
+pub const CONTROLLED: [usize; N_CONTROLLED] = [THETA_A, DTE, W_A, DDTE, X_S, V_S];
 
 /// A contact left the model's range: reported with the contact, the penetration and the limit.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,26 +72,82 @@ pub struct Loads {
     pub chi: f64,
     pub mu: f64,
     pub v_reg: f64,
+    /// Angular acceleration of the housing [rad/s^2] (rig-and-modes §4).
+    pub alpha_housing: f64,
+    /// Acceleration of the slider's guide along O_A O_B [m/s^2].
+    pub a_housing_x: f64,
+}
+
+impl Loads {
+    pub fn new(p: &Params, i: &Inputs) -> Loads {
+        Loads {
+            tau_a: i.tau_A,
+            tau_b: i.tau_B,
+            c_load: p.c_load,
+            chi: p.chi,
+            mu: p.mu,
+            v_reg: p.v_reg,
+            alpha_housing: i.alpha_housing,
+            a_housing_x: i.a_housing_x,
+        }
+    }
+}
+
+/// The contact law (`contact_model`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ContactModel {
+    /// Johnson's line-contact compliance with Hunt-Crossley damping (the paper's mesh).
+    Johnson,
+    /// A unilateral constraint with Newton impacts. `two_sided`: zero backlash and no slider,
+    /// so both flanks touch at once and N may take either sign.
+    Rigid { restitution: f64, two_sided: bool },
+}
+
+/// What the mesh applies to the wheels and to B's bearing, interface-frame torques.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeshLoad {
+    pub tq_a: f64,
+    pub tq_b: f64,
+    /// x component (paper frame) of the force on B; computed only where a slider needs it.
+    pub f_bx: f64,
+    pub p_loss: f64,
+}
+
+impl MeshLoad {
+    fn scaled(&self, n: f64) -> MeshLoad {
+        MeshLoad {
+            tq_a: n * self.tq_a,
+            tq_b: n * self.tq_b,
+            f_bx: n * self.f_bx,
+            p_loss: n * self.p_loss,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
     pub geo: Geometry,
     pub loads: Loads,
+    pub law: ContactModel,
+    pub slider: Option<Slider>,
     width: f64,
     j_a: f64,
     j_b: f64,
     backlash: f64,
+    sin_a: f64,
+    cos_a: f64,
     present: [bool; SLOTS],
     /// s_A = sigma + dir rAb theta_A for each slot.
     pub sigma: [f64; SLOTS],
     /// Recorded sign of every event function (true: positive side). Gate signs are the gating
     /// modes; Pen and Rel signs make a flank carry force. Top and Bottom are always positive
-    /// between events.
+    /// between events. With rigid contact a Pen sign means "locked on that flank" and its Rel
+    /// function is the constraint force.
     pub sign: [bool; N_EVENTS],
     /// Energy brought in (or out) by mode changes at events, for the energy balance.
     pub e_gate: f64,
     pub n_events: u64,
+    pub n_impacts: u64,
     pub(crate) e_start: f64,
 }
 
@@ -93,9 +158,26 @@ pub struct EventReport {
 }
 
 impl Mesh {
-    /// Builds the mesh and its initial state from the parameters (spec §3 initial values).
+    /// Builds the mesh and its initial state from the parameters (spec §3 initial values;
+    /// rig-and-modes §2 for the rigid contact's initial mode).
     pub fn new(p: &Params, inputs: &Inputs) -> Result<(Mesh, State), ModelError> {
         let geo = Geometry::new(p)?;
+        let slider = Slider::from_params(p)?;
+        // validate() (through Geometry::new) admits contact_model 1 and 2 only.
+        let law = if p.contact_model == 2 {
+            if !(p.dte_start >= -p.backlash && p.dte_start <= 0.0) {
+                return Err(ModelError::new(format!(
+                    "parameter dte_start = {} m: with rigid contact (contact_model = 2) it must lie in [-backlash, 0] = [{}, 0]",
+                    p.dte_start, -p.backlash
+                )));
+            }
+            ContactModel::Rigid {
+                restitution: p.restitution,
+                two_sided: p.backlash == 0.0 && slider.is_none() && p.backward_contacts,
+            }
+        } else {
+            ContactModel::Johnson
+        };
         let theta_a = p.dte_start / geo.r_ab;
         let (geo_r_ab, geo_r_bb) = (geo.r_ab, geo.r_bb);
         let mut present = [false; SLOTS];
@@ -110,30 +192,29 @@ impl Mesh {
                 sigma[k] = contact::wrap_into_window(&geo, init[k], slot_flank(k).dir(), theta_a);
             }
         }
+        let (sin_a, cos_a) = geo.alpha_w.sin_cos();
         let mut mesh = Mesh {
             width: p.width,
             j_a: p.J_A,
             j_b: p.J_B,
             backlash: p.backlash,
-            loads: Loads {
-                tau_a: inputs.tau_A,
-                tau_b: inputs.tau_B,
-                c_load: p.c_load,
-                chi: p.chi,
-                mu: p.mu,
-                v_reg: p.v_reg,
-            },
+            sin_a,
+            cos_a,
+            loads: Loads::new(p, inputs),
+            law,
+            slider,
             geo,
             present,
             sigma,
             sign: [true; N_EVENTS],
             e_gate: 0.0,
             n_events: 0,
+            n_impacts: 0,
             e_start: 0.0,
         };
         let v = geo_r_ab * p.w_A_start - geo_r_bb * p.w_B_start;
-        let y = [theta_a, p.dte_start, p.w_A_start, v, 0.0, 0.0];
-        mesh.init_signs(&y);
+        let mut y = [theta_a, p.dte_start, p.w_A_start, v, 0.0, 0.0, 0.0, 0.0];
+        mesh.init_signs(&mut y);
         mesh.check_range(&y)
             .map_err(|e| ModelError::new(format!("initial state: {e}")))?;
         mesh.e_start = mesh
@@ -147,6 +228,15 @@ impl Mesh {
         self.present[k]
     }
 
+    /// The number of state components in use (a prefix of `State`): no slider, no slider states.
+    pub fn dim(&self) -> usize {
+        if self.slider.is_some() {
+            NY
+        } else {
+            X_S
+        }
+    }
+
     fn flank_present(&self, f: Flank) -> bool {
         match f {
             Flank::Forward => true,
@@ -158,12 +248,28 @@ impl Mesh {
         self.loads.chi > 0.0
     }
 
-    /// Penetration of a flank and its rate: forward delta = dte, backward delta = -backlash - dte.
+    fn rigid(&self) -> bool {
+        matches!(self.law, ContactModel::Rigid { .. })
+    }
+
+    fn two_sided(&self) -> bool {
+        matches!(
+            self.law,
+            ContactModel::Rigid {
+                two_sided: true,
+                ..
+            }
+        )
+    }
+
+    /// Penetration of a flank and its rate: forward delta = dte - x_S sin(alpha_w), backward
+    /// delta = -backlash - dte - x_S sin(alpha_w) (moving B away opens both flanks).
     pub fn flank_delta(&self, f: Flank, y: &State) -> (f64, f64) {
         let ddte = y[DDTE];
+        let (x, vx) = (y[X_S] * self.sin_a, y[V_S] * self.sin_a);
         match f {
-            Flank::Forward => (y[DTE], ddte),
-            Flank::Backward => (-self.backlash - y[DTE], -ddte),
+            Flank::Forward => (y[DTE] - x, ddte - vx),
+            Flank::Backward => (-self.backlash - y[DTE] - x, -ddte - vx),
         }
     }
 
@@ -176,13 +282,29 @@ impl Mesh {
         self.sigma[k] + slot_flank(k).dir() * self.geo.r_ab * y[THETA_A]
     }
 
-    /// A flank carries force: touching and, when damped, pressing (Hunt-Crossley force > 0).
+    /// A flank carries force: compliant, touching and, when damped, pressing (Hunt-Crossley
+    /// force > 0); rigid, locked on it.
     pub fn flank_on(&self, f: Flank) -> bool {
-        self.sign[EventFn::Pen(f).index()] && (!self.damped() || self.sign[EventFn::Rel(f).index()])
+        let pen = self.sign[EventFn::Pen(f).index()];
+        pen && (self.rigid() || !self.damped() || self.sign[EventFn::Rel(f).index()])
+    }
+
+    fn gated(&self, k: usize) -> bool {
+        self.present[k] && self.sign[EventFn::Gate(k).index()]
     }
 
     pub fn carrying(&self, k: usize) -> bool {
-        self.present[k] && self.sign[EventFn::Gate(k).index()] && self.flank_on(slot_flank(k))
+        self.gated(k) && self.flank_on(slot_flank(k))
+    }
+
+    /// The rigid contact's locked flank, if any.
+    fn locked(&self) -> Option<Flank> {
+        if !self.rigid() {
+            return None;
+        }
+        [Flank::Forward, Flank::Backward]
+            .into_iter()
+            .find(|&f| self.flank_present(f) && self.sign[EventFn::Pen(f).index()])
     }
 
     /// Normal force of one pair on a carrying flank: width N(delta)(1 + chi d(delta)/dt).
@@ -191,19 +313,40 @@ impl Mesh {
         Ok((n, self.width * n * (1.0 + self.loads.chi * ddelta)))
     }
 
+    /// Friction force per unit normal force of a pair, and its sliding velocity (spec §4).
+    fn friction(&self, s_a: f64, s_b: f64, w_a: f64, w_b: f64) -> (f64, f64) {
+        let v_s = -w_a * s_a + w_b * s_b;
+        (self.loads.mu * (v_s / self.loads.v_reg).tanh(), v_s)
+    }
+
     /// Right-hand side with the current modes. Errors only when the Johnson law leaves its range.
     pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
+        let (load, locked) = if self.rigid() {
+            self.rigid_load(y)
+        } else {
+            (self.compliant_load(y, None)?, None)
+        };
+        self.motion(y, &load, locked, dy);
+        Ok(())
+    }
+
+    /// The Johnson mesh's load; `pairs` also receives each slot's normal and friction force.
+    fn compliant_load(
+        &self,
+        y: &State,
+        mut pairs: Option<&mut [(f64, f64); SLOTS]>,
+    ) -> Result<MeshLoad, LawOutOfRange> {
         let g = &self.geo;
         let (w_a, w_b) = (y[W_A], self.w_b(y));
-        let (mut tq_a, mut tq_b, mut p_loss) = (0.0, 0.0, 0.0);
+        let mut m = MeshLoad::default();
+        let slider = self.slider.is_some();
         for f in [Flank::Forward, Flank::Backward] {
             if !self.flank_present(f) || !self.flank_on(f) {
                 continue;
             }
             let slots = if f == Flank::Forward { 0..2 } else { 2..4 };
-            let gated = slots.filter(|&k| self.present[k] && self.sign[EventFn::Gate(k).index()]);
-            let mut pairs = gated.peekable();
-            if pairs.peek().is_none() {
+            let mut gated = slots.filter(|&k| self.gated(k)).peekable();
+            if gated.peek().is_none() {
                 continue;
             }
             let (delta, ddelta) = self.flank_delta(f, y);
@@ -211,33 +354,132 @@ impl Mesh {
                 .pair_force(delta, ddelta)
                 .map_err(|e| self.out_of_range(f, e))?;
             let dir = f.dir();
-            for k in pairs {
+            for k in gated {
                 // Normal force: the spec's paper-frame torques, turned into the interface frame.
-                tq_a -= dir * fn_ * g.r_ab;
-                tq_b += dir * fn_ * g.r_bb;
+                m.tq_a -= dir * fn_ * g.r_ab;
+                m.tq_b += dir * fn_ * g.r_bb;
                 if self.loads.chi > 0.0 {
-                    p_loss += self.width * n * self.loads.chi * ddelta * ddelta;
+                    m.p_loss += self.width * n * self.loads.chi * ddelta * ddelta;
                 }
+                let mut ft = 0.0;
                 if self.loads.mu > 0.0 {
                     let s_a = self.s_contact(k, y);
                     let s_b = g.l + delta - s_a;
-                    let v_s = -w_a * s_a + w_b * s_b;
-                    let ft = self.loads.mu * (v_s / self.loads.v_reg).tanh() * fn_;
-                    tq_a += ft * s_a;
-                    tq_b -= ft * s_b;
-                    p_loss += ft * v_s;
+                    let (mu_eff, v_s) = self.friction(s_a, s_b, w_a, w_b);
+                    ft = mu_eff * fn_;
+                    m.tq_a += ft * s_a;
+                    m.tq_b -= ft * s_b;
+                    m.p_loss += ft * v_s;
+                }
+                if slider {
+                    m.f_bx += rig::force_on_b(f, fn_, ft, self.sin_a, self.cos_a).0;
+                }
+                if let Some(p) = pairs.as_deref_mut() {
+                    p[k] = (fn_, ft);
                 }
             }
         }
+        Ok(m)
+    }
+
+    /// The load of a locked flank per newton of total constraint force, with the equal split
+    /// between its gated pairs; `None` when no pair is gated there.
+    fn unit_load(&self, f: Flank, y: &State) -> Option<(MeshLoad, usize)> {
+        let g = &self.geo;
+        let slots = if f == Flank::Forward { 0..2 } else { 2..4 };
+        let n = slots.clone().filter(|&k| self.gated(k)).count();
+        if n == 0 {
+            return None;
+        }
+        let (w_a, w_b) = (y[W_A], self.w_b(y));
+        let (dir, share) = (f.dir(), 1.0 / n as f64);
+        let mut m = MeshLoad::default();
+        for k in slots.filter(|&k| self.gated(k)) {
+            m.tq_a -= dir * share * g.r_ab;
+            m.tq_b += dir * share * g.r_bb;
+            let mut ft = 0.0;
+            if self.loads.mu > 0.0 {
+                let s_a = self.s_contact(k, y);
+                let s_b = g.l - s_a;
+                let (mu_eff, v_s) = self.friction(s_a, s_b, w_a, w_b);
+                ft = mu_eff * share;
+                m.tq_a += ft * s_a;
+                m.tq_b -= ft * s_b;
+                m.p_loss += ft * v_s;
+            }
+            m.f_bx += rig::force_on_b(f, share, ft, self.sin_a, self.cos_a).0;
+        }
+        Some((m, n))
+    }
+
+    /// Total constraint force that keeps flank f locked, with the current gates and speeds.
+    fn constraint_force(&self, f: Flank, y: &State) -> Option<(f64, MeshLoad)> {
+        let (unit, _) = self.unit_load(f, y)?;
+        // d^2 delta/dt^2 = a0 + a1 N: the free acceleration and the effect of a unit N.
+        let accel = |load: &MeshLoad, n: f64| {
+            let (dw_a, acc_b, acc_x) = self.accelerations(y, load, n);
+            f.dir() * (self.geo.r_ab * dw_a - self.geo.r_bb * acc_b) - self.sin_a * acc_x
+        };
+        let a0 = accel(&MeshLoad::default(), 1.0);
+        let a1 = accel(&unit, 0.0);
+        let n = rigid::lock_force(a0, a1)?;
+        Some((n, unit))
+    }
+
+    /// The rigid mesh's load and its locked flank (none when free).
+    fn rigid_load(&self, y: &State) -> (MeshLoad, Option<Flank>) {
+        match self.locked() {
+            Some(f) => match self.constraint_force(f, y) {
+                Some((n, unit)) => (unit.scaled(n), Some(f)),
+                None => (MeshLoad::default(), None),
+            },
+            None => (MeshLoad::default(), None),
+        }
+    }
+
+    /// Accelerations of A, B and the slider under a mesh load; `external` scales the torques,
+    /// housing and slider forces (1 for the real motion, 0 for a unit constraint force alone).
+    fn accelerations(&self, y: &State, m: &MeshLoad, external: f64) -> (f64, f64, f64) {
         let l = &self.loads;
+        let w_b = self.w_b(y);
+        let dw_a = (external * l.tau_a + m.tq_a) / self.j_a + external * l.alpha_housing;
+        let acc_b = (external * (l.tau_b - l.c_load * w_b) + m.tq_b) / self.j_b
+            - external * l.alpha_housing;
+        let acc_x = match self.slider {
+            Some(s) => {
+                (m.f_bx - external * (s.k * y[X_S] + s.c * y[V_S])) / s.m - external * l.a_housing_x
+            }
+            None => 0.0,
+        };
+        (dw_a, acc_b, acc_x)
+    }
+
+    /// The equations of motion under a mesh load (spec §5, rig-and-modes §3-§4). A locked
+    /// rigid flank holds its penetration exactly: no drift away from the constraint.
+    fn motion(&self, y: &State, load: &MeshLoad, locked: Option<Flank>, dy: &mut State) {
+        let g = &self.geo;
+        let l = &self.loads;
+        let (w_a, w_b) = (y[W_A], self.w_b(y));
+        let (dw_a, acc_b, acc_x) = self.accelerations(y, load, 1.0);
         dy[THETA_A] = w_a;
         dy[DTE] = g.r_ab * w_a - g.r_bb * w_b;
-        dy[W_A] = (l.tau_a + tq_a) / self.j_a;
-        let acc_b = (l.tau_b - l.c_load * w_b + tq_b) / self.j_b;
-        dy[DDTE] = g.r_ab * dy[W_A] - g.r_bb * acc_b;
-        dy[W_EXT] = l.tau_a * w_a + l.tau_b * w_b - l.c_load * w_b * w_b;
-        dy[W_LOSS] = p_loss;
-        Ok(())
+        dy[W_A] = dw_a;
+        dy[DDTE] = g.r_ab * dw_a - g.r_bb * acc_b;
+        if let Some(f) = locked {
+            dy[DTE] = y[DDTE];
+            dy[DDTE] = f.dir() * self.sin_a * acc_x;
+        }
+        dy[W_EXT] = l.tau_a * w_a + l.tau_b * w_b - l.c_load * w_b * w_b
+            + l.alpha_housing * (self.j_a * w_a - self.j_b * w_b);
+        dy[W_LOSS] = load.p_loss;
+        dy[X_S] = 0.0;
+        dy[V_S] = 0.0;
+        if let Some(s) = self.slider {
+            dy[W_EXT] -= s.m * l.a_housing_x * y[V_S];
+            dy[W_LOSS] += s.c * y[V_S] * y[V_S];
+            dy[X_S] = y[V_S];
+            dy[V_S] = acc_x;
+        }
     }
 
     fn out_of_range(&self, f: Flank, e: OutOfRange) -> LawOutOfRange {
@@ -286,6 +528,16 @@ impl Mesh {
     fn event_active(&self, e: EventFn) -> bool {
         match e {
             EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => self.present[k],
+            // Rigid: an impact is watched for on a flank that is not locked (with two-sided
+            // contact neither is once one is), the constraint force on the locked one.
+            EventFn::Pen(f) if self.rigid() => {
+                self.flank_present(f)
+                    && match self.locked() {
+                        None => true,
+                        Some(l) => l != f && !self.two_sided(),
+                    }
+            }
+            EventFn::Rel(f) if self.rigid() => self.locked() == Some(f),
             EventFn::Pen(f) => self.flank_present(f),
             // A release matters only while the flank touches; its sign is set afresh at onset.
             EventFn::Rel(f) => {
@@ -304,6 +556,7 @@ impl Mesh {
                 self.s_contact(k, y) - delta.max(0.0) - self.geo.s_a
             }
             EventFn::Pen(f) => self.flank_delta(f, y).0,
+            EventFn::Rel(f) if self.rigid() => self.constraint_force(f, y).map_or(-1.0, |c| c.0),
             EventFn::Rel(f) => 1.0 + self.loads.chi * self.flank_delta(f, y).1,
         }
     }
@@ -327,6 +580,41 @@ impl Mesh {
             v
         } else {
             -v
+        }
+    }
+
+    fn init_signs(&mut self, y: &mut State) {
+        for i in 0..N_EVENTS {
+            let e = EventFn::from_index(i);
+            match e {
+                EventFn::Top(_) | EventFn::Bottom(_) => self.sign[i] = true,
+                EventFn::Pen(_) | EventFn::Rel(_) if self.rigid() => {
+                    self.sign[i] = !matches!(e, EventFn::Pen(_))
+                }
+                _ => self.set_sign(e, y),
+            }
+        }
+        if self.rigid() {
+            self.init_rigid(y);
+        }
+    }
+
+    /// The rigid contact at t = 0 (rig-and-modes §2): a flank touching with delta = 0 is an
+    /// impact if it approaches faster than double precision resolves, free if it separates,
+    /// else locked when the constraint force is >= 0.
+    fn init_rigid(&mut self, y: &mut State) {
+        let g = &self.geo;
+        let res = rigid::speed_resolution(g.r_ab, g.r_bb, y[W_A], self.w_b(y));
+        for f in [Flank::Forward, Flank::Backward] {
+            let (delta, rate) = self.flank_delta(f, y);
+            if !self.flank_present(f) || delta != 0.0 || self.locked().is_some() {
+                continue;
+            }
+            if rate > res {
+                self.impact(f, y);
+            } else if rate >= -res {
+                self.try_lock(f, y);
+            }
         }
     }
 
@@ -366,22 +654,121 @@ impl Mesh {
         self.sign[e.index()] = positive;
     }
 
-    fn init_signs(&mut self, y: &State) {
-        for i in 0..N_EVENTS {
-            let e = EventFn::from_index(i);
-            match e {
-                EventFn::Top(_) | EventFn::Bottom(_) => self.sign[i] = true,
-                _ => self.set_sign(e, y),
-            }
+    /// Kinetic energy of the wheels and the slider.
+    fn kinetic_energy(&self, y: &State) -> f64 {
+        let w_b = self.w_b(y);
+        let slider = self.slider.map_or(0.0, |s| 0.5 * s.m * y[V_S] * y[V_S]);
+        0.5 * (self.j_a * y[W_A] * y[W_A] + self.j_b * w_b * w_b) + slider
+    }
+
+    /// 1/m_eff of an impact along the line of action (rig-and-modes §2).
+    fn inv_effective_mass(&self) -> f64 {
+        let g = &self.geo;
+        g.r_ab * g.r_ab / self.j_a
+            + g.r_bb * g.r_bb / self.j_b
+            + self.slider.map_or(0.0, |s| self.sin_a * self.sin_a / s.m)
+    }
+
+    /// A rigid tooth impact on flank f (Newton's law), then a lock if the rebound is too short
+    /// to resolve (see `rigid::Impact::ends_in_lock`). Returns what happened.
+    fn impact(&mut self, f: Flank, y: &mut State) -> String {
+        let ContactModel::Rigid {
+            restitution,
+            two_sided,
+        } = self.law
+        else {
+            unreachable!("impacts are rigid-contact events")
+        };
+        let e_kin = self.kinetic_energy(y);
+        let (_, v_minus) = self.flank_delta(f, y);
+        let v_minus = v_minus.max(0.0);
+        // No room to rebound into with two-sided contact: the impact is plastic.
+        let e = if two_sided { 0.0 } else { restitution };
+        let imp = Impact::new(v_minus, e, self.inv_effective_mass());
+        self.apply_impulse(f, imp.impulse, y);
+        let g = &self.geo;
+        let mut dy = [0.0; NY];
+        self.motion(y, &MeshLoad::default(), None, &mut dy);
+        let approach = f.dir() * dy[DDTE] - self.sin_a * dy[V_S];
+        let res = rigid::speed_resolution(g.r_ab, g.r_bb, y[W_A], self.w_b(y));
+        let locked = (e == 0.0 || imp.ends_in_lock(approach, res)) && self.try_lock(f, y);
+        self.n_impacts += 1;
+        y[W_LOSS] += e_kin - self.kinetic_energy(y);
+        format!(
+            "{f:?} flank impact at {v_minus:.6e} m/s, rebound {:.6e} m/s: {}",
+            imp.rebound_speed,
+            if locked { "locks" } else { "free" }
+        )
+    }
+
+    /// An impulse p along flank f's line of action, pushing the teeth apart (rig-and-modes §2:
+    /// forward, J_A dw_A = -P rAb and J_B dw_B = +P rBb; backward the opposite; the slider
+    /// takes P sin(alpha_w) either way).
+    fn apply_impulse(&self, f: Flank, p: f64, y: &mut State) {
+        let g = &self.geo;
+        let dir = f.dir();
+        y[W_A] -= dir * p * g.r_ab / self.j_a;
+        y[DDTE] -= dir * p * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b);
+        if let Some(s) = self.slider {
+            y[V_S] += p * self.sin_a / s.m;
         }
     }
 
-    /// Applies the event whose function crossed at the state y, and returns what happened.
-    pub fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange> {
+    /// Locks flank f if its constraint force is >= 0 (two-sided: either flank, by the sign of
+    /// N). A lock is a plastic impact: the impulse along the line of action that stops the
+    /// relative normal motion; the penetration and its rate are then exactly 0.
+    fn try_lock(&mut self, f: Flank, y: &mut State) -> bool {
+        let mut candidates = vec![f];
+        if self.two_sided() {
+            candidates.push(other(f));
+        }
+        for c in candidates {
+            let mut yl = *y;
+            let rate = self.flank_delta(c, &yl).1;
+            self.apply_impulse(c, rate / self.inv_effective_mass(), &mut yl);
+            let (x, vx) = (yl[X_S] * self.sin_a, yl[V_S] * self.sin_a);
+            match c {
+                Flank::Forward => (yl[DTE], yl[DDTE]) = (x, vx),
+                Flank::Backward => (yl[DTE], yl[DDTE]) = (-self.backlash - x, -vx),
+            }
+            if matches!(self.constraint_force(c, &yl), Some((n, _)) if n >= 0.0) {
+                self.sign[EventFn::Pen(c).index()] = true;
+                self.sign[EventFn::Rel(c).index()] = true;
+                *y = yl;
+                return true;
+            }
+        }
+        false
+    }
+
+    /// After a change of gates or loads a locked flank must still press (N >= 0); else it is
+    /// released (two-sided: the other flank takes over).
+    fn recheck_lock(&mut self, y: &mut State) -> Option<String> {
+        let f = self.locked()?;
+        if matches!(self.constraint_force(f, y), Some((n, _)) if n >= 0.0) {
+            return None;
+        }
+        Some(self.release(f, y))
+    }
+
+    fn release(&mut self, f: Flank, y: &mut State) -> String {
+        self.sign[EventFn::Pen(f).index()] = false;
+        if self.two_sided() && self.try_lock(other(f), y) {
+            return format!(
+                "constraint force changes sign: the {:?} flank carries",
+                other(f)
+            );
+        }
+        format!("{f:?} flank releases (constraint force reaches 0)")
+    }
+
+    /// Applies the event whose function crossed at the state y, and returns what happened. A
+    /// rigid impact changes the speeds in y.
+    pub fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange> {
         let before = self.elastic_energy(y)?;
         let e = EventFn::from_index(i);
         let span = self.geo.m_c as f64 * self.geo.p_b;
-        let what = match e {
+        let mut what = match e {
             EventFn::Top(k) | EventFn::Bottom(k) => {
                 let down = matches!(e, EventFn::Top(_));
                 self.sigma[k] += if down { -span } else { span };
@@ -403,6 +790,8 @@ impl Mesh {
                     if into { "enters" } else { "leaves" }
                 )
             }
+            EventFn::Pen(f) if self.rigid() => self.impact(f, y),
+            EventFn::Rel(f) if self.rigid() => self.release(f, y),
             EventFn::Pen(f) => {
                 self.sign[i] = !self.sign[i];
                 if self.sign[i] && self.damped() {
@@ -427,25 +816,38 @@ impl Mesh {
                 )
             }
         };
+        // A pair switch moves the friction arms and the split of a rigid lock.
+        if matches!(e, EventFn::Top(_) | EventFn::Bottom(_) | EventFn::Gate(_)) {
+            if let Some(r) = self.recheck_lock(y) {
+                what = format!("{what}; {r}");
+            }
+        }
         self.n_events += 1;
         self.e_gate += self.elastic_energy(y)? - before;
         Ok(EventReport { what })
     }
 
     /// A master changed inputs or tunable parameters: the right-hand side changes from here on.
-    pub fn set_loads(&mut self, loads: Loads, y: &State) {
+    /// Returns a rigid lock's release, if the new loads pull the teeth apart.
+    pub fn set_loads(&mut self, loads: Loads, y: &mut State) -> Option<String> {
         let was_damped = self.damped();
         self.loads = loads;
+        if self.rigid() {
+            return self.recheck_lock(y);
+        }
         if self.damped() && !was_damped {
             for f in [Flank::Forward, Flank::Backward] {
                 self.set_sign(EventFn::Rel(f), y);
             }
         }
+        None
     }
 
-    /// Highest natural frequency of the wheels on the carrying contacts [rad/s]: tangent mesh
-    /// stiffness times the reduced inverse inertia (rAb^2/J_A + rBb^2/J_B); 0 without contact.
-    pub fn vibration_frequency(&self, y: &State) -> f64 {
+    /// Tangent stiffness [N/m] of the carrying compliant contacts, summed.
+    fn mesh_stiffness(&self, y: &State) -> f64 {
+        if self.rigid() {
+            return 0.0;
+        }
         let mut k = 0.0;
         for f in [Flank::Forward, Flank::Backward] {
             let pairs = (0..SLOTS)
@@ -458,13 +860,23 @@ impl Mesh {
                 k += pairs as f64 * self.width * stiffness;
             }
         }
-        let g = &self.geo;
-        (k * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b)).sqrt()
+        k
     }
 
-    /// Elastic energy of the carrying pairs.
+    /// Bound on the highest natural frequency [rad/s]: the mesh stiffness times the reduced
+    /// inverse inertia along the line of action, plus the slider on its spring (the trace of
+    /// the coupled system bounds its largest eigenvalue); 0 without contact or slider.
+    pub fn vibration_frequency(&self, y: &State) -> f64 {
+        let slider = self.slider.map_or(0.0, |s| s.k / s.m);
+        (self.mesh_stiffness(y) * self.inv_effective_mass() + slider).sqrt()
+    }
+
+    /// Elastic energy of the carrying pairs and of the slider's spring.
     pub fn elastic_energy(&self, y: &State) -> Result<f64, LawOutOfRange> {
-        let mut e = 0.0;
+        let mut e = self.slider.map_or(0.0, |s| 0.5 * s.k * y[X_S] * y[X_S]);
+        if self.rigid() {
+            return Ok(e);
+        }
         for f in [Flank::Forward, Flank::Backward] {
             let pairs = (0..SLOTS)
                 .filter(|&k| slot_flank(k) == f && self.carrying(k))
@@ -481,8 +893,7 @@ impl Mesh {
 
     /// (E_kin + E_el + W_loss - W_ext - E_gate, E_kin, E_el).
     fn energy_terms(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
-        let w_b = self.w_b(y);
-        let e_kin = 0.5 * (self.j_a * y[W_A] * y[W_A] + self.j_b * w_b * w_b);
+        let e_kin = self.kinetic_energy(y);
         let e_el = self.elastic_energy(y)?;
         Ok((
             e_kin + e_el + y[W_LOSS] - y[W_EXT] - self.e_gate,
@@ -491,11 +902,39 @@ impl Mesh {
         ))
     }
 
+    /// Normal and friction force of every slot, and the load they make.
+    fn pair_forces(&self, y: &State) -> Result<([(f64, f64); SLOTS], MeshLoad), LawOutOfRange> {
+        let mut pairs = [(0.0, 0.0); SLOTS];
+        if !self.rigid() {
+            let load = self.compliant_load(y, Some(&mut pairs))?;
+            return Ok((pairs, load));
+        }
+        let (load, locked) = self.rigid_load(y);
+        if let Some(f) = locked {
+            let (n, _) = self
+                .constraint_force(f, y)
+                .expect("locked with gated pairs");
+            let (_, count) = self.unit_load(f, y).expect("locked with gated pairs");
+            let (w_a, w_b) = (y[W_A], self.w_b(y));
+            for k in (0..SLOTS).filter(|&k| slot_flank(k) == f && self.gated(k)) {
+                let fn_ = n / count as f64;
+                let mut ft = 0.0;
+                if self.loads.mu > 0.0 {
+                    let s_a = self.s_contact(k, y);
+                    ft = self.friction(s_a, self.geo.l - s_a, w_a, w_b).0 * fn_;
+                }
+                pairs[k] = (fn_, ft);
+            }
+        }
+        Ok((pairs, load))
+    }
+
     pub fn outputs(&self, y: &State) -> Result<Outputs, LawOutOfRange> {
         let g = &self.geo;
-        let mut force = [0.0; SLOTS];
         let mut s = [0.0; SLOTS];
         let (mut f_flank, mut n_flank) = ([0.0; 2], [0; 2]);
+        let (pairs, load) = self.pair_forces(y)?;
+        let (mut f_bx, mut f_by) = (0.0, 0.0);
         for k in 0..SLOTS {
             if !self.present[k] {
                 continue;
@@ -503,38 +942,32 @@ impl Mesh {
             s[k] = self.s_contact(k, y);
             if self.carrying(k) {
                 let f = slot_flank(k);
-                let (delta, ddelta) = self.flank_delta(f, y);
-                force[k] = self
-                    .pair_force(delta, ddelta)
-                    .map_err(|e| self.out_of_range(f, e))?
-                    .1;
-                f_flank[f as usize] += force[k];
+                f_flank[f as usize] += pairs[k].0;
                 n_flank[f as usize] += 1;
+                let (fx, fy) = rig::force_on_b(f, pairs[k].0, pairs[k].1, self.sin_a, self.cos_a);
+                f_bx += fx;
+                f_by += fy;
             }
         }
+        let (balance, e_kin, e_el) = self.energy_terms(y)?;
         let mut dy = [0.0; NY];
         self.rhs(y, &mut dy)?;
-        let l = &self.loads;
-        let tau_mesh_a = dy[W_A] * self.j_a - l.tau_a;
-        let acc_b = (g.r_ab * dy[W_A] - dy[DDTE]) / g.r_bb;
-        let tau_mesh_b = acc_b * self.j_b - l.tau_b + l.c_load * self.w_b(y);
-        let (balance, e_kin, e_el) = self.energy_terms(y)?;
         Ok(Outputs {
             theta_A: y[THETA_A],
             theta_B: (g.r_ab * y[THETA_A] - y[DTE]) / g.r_bb,
             w_A: y[W_A],
             w_B: self.w_b(y),
             dte: y[DTE],
-            F_f1: force[0],
-            F_f2: force[1],
-            F_b1: force[2],
-            F_b2: force[3],
+            F_f1: pairs[0].0,
+            F_f2: pairs[1].0,
+            F_b1: pairs[2].0,
+            F_b2: pairs[3].0,
             F_fwd: f_flank[0],
             F_bwd: f_flank[1],
             n_fwd: n_flank[0],
             n_bwd: n_flank[1],
-            tau_mesh_A: tau_mesh_a,
-            tau_mesh_B: tau_mesh_b,
+            tau_mesh_A: load.tq_a,
+            tau_mesh_B: load.tq_b,
             P_loss: dy[W_LOSS],
             s_f1: s[0],
             s_f2: s[1],
@@ -547,6 +980,10 @@ impl Mesh {
             E_gate: self.e_gate,
             energy_residual: balance - self.e_start,
             n_events: saturate(self.n_events),
+            n_impacts: saturate(self.n_impacts),
+            x_slider: y[X_S],
+            F_B_x: f_bx,
+            F_B_y: f_by,
             // The driver's counters; the simulation fills them in.
             n_steps: 0,
             n_rejected_steps: 0,
@@ -573,12 +1010,22 @@ impl Mesh {
         }
     }
 
+    /// Components under error control: the slider's two only when there is one.
+    pub fn n_controlled(&self) -> usize {
+        if self.slider.is_some() {
+            N_CONTROLLED
+        } else {
+            4
+        }
+    }
+
     /// Absolute error tolerances of the controlled components at a relative tolerance: 1 rad
     /// for the angle and 1 rad/s for w_A (relative control takes over above). The penetration's
     /// scale is the static penetration of one pair under the contact force that the current
     /// torques imply (floor 1e-12 m), so dte stays under control from milli-newton to mega-newton
     /// loads; the mesh velocity's scale is that penetration times the mesh's natural frequency
-    /// there, the velocity of a vibration of that amplitude.
+    /// there, the velocity of a vibration of that amplitude. The slider's scales are its static
+    /// deflection under that force and the same deflection at its own frequency.
     pub fn abs_tol(&self, rel_tol: f64) -> [f64; N_CONTROLLED] {
         let g = &self.geo;
         let force = self.loads.tau_a.abs() / g.r_ab + self.loads.tau_b.abs() / g.r_bb;
@@ -598,7 +1045,28 @@ impl Mesh {
         let k = self.width * johnson::stiffness(delta, g.l + delta, g.e_star).unwrap_or(0.0);
         let omega = (k * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b)).sqrt();
         let velocity = (delta * omega).max(1e-12);
-        [rel_tol, rel_tol * delta, rel_tol, rel_tol * velocity]
+        let (x, vx) = match self.slider {
+            Some(s) => {
+                let x = (force * self.sin_a / s.k).max(1e-12);
+                (x, (x * s.frequency()).max(1e-12))
+            }
+            None => (1.0, 1.0),
+        };
+        [
+            rel_tol,
+            rel_tol * delta,
+            rel_tol,
+            rel_tol * velocity,
+            rel_tol * x,
+            rel_tol * vx,
+        ]
+    }
+}
+
+fn other(f: Flank) -> Flank {
+    match f {
+        Flank::Forward => Flank::Backward,
+        Flank::Backward => Flank::Forward,
     }
 }
 
@@ -623,6 +1091,7 @@ mod tests {
             Inputs {
                 tau_A: 100.0,
                 tau_B: 0.0,
+                ..Inputs::default()
             },
         )
     }

@@ -5,8 +5,10 @@ pub mod contact;
 pub mod geometry;
 pub mod johnson;
 pub mod mesh;
+pub mod rig;
+pub mod rigid;
 
-pub use mesh::{Loads, Mesh, State, NY};
+pub use mesh::{ContactModel, Loads, Mesh, State, NY};
 
 /// An invalid parameter set or initial state, with a message naming the variable and the value.
 #[derive(Clone, Debug, PartialEq)]
