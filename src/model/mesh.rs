@@ -680,8 +680,15 @@ impl Mesh {
             unreachable!("impacts are rigid-contact events")
         };
         let e_kin = self.kinetic_energy(y);
-        let (_, v_minus) = self.flank_delta(f, y);
-        let v_minus = v_minus.max(0.0);
+        // The event was located just past delta = 0: put the teeth exactly on the flank, so the
+        // rebound starts from delta = 0 and the event cannot fire again at its own restart.
+        self.touch(f, y);
+        let (_, rate) = self.flank_delta(f, y);
+        let g = &self.geo;
+        if rate < -rigid::speed_resolution(g.r_ab, g.r_bb, y[W_A], self.w_b(y)) {
+            return format!("{f:?} flank grazed while separating: no impact");
+        }
+        let v_minus = rate.max(0.0);
         // No room to rebound into with two-sided contact: the impact is plastic.
         let e = if two_sided { 0.0 } else { restitution };
         let imp = Impact::new(v_minus, e, self.inv_effective_mass());
@@ -699,6 +706,15 @@ impl Mesh {
             imp.rebound_speed,
             if locked { "locks" } else { "free" }
         )
+    }
+
+    /// Sets dte so that flank f's penetration is exactly 0.
+    fn touch(&self, f: Flank, y: &mut State) {
+        let x = y[X_S] * self.sin_a;
+        y[DTE] = match f {
+            Flank::Forward => x,
+            Flank::Backward => -self.backlash - x,
+        };
     }
 
     /// An impulse p along flank f's line of action, pushing the teeth apart (rig-and-modes §2:
@@ -726,11 +742,12 @@ impl Mesh {
             let mut yl = *y;
             let rate = self.flank_delta(c, &yl).1;
             self.apply_impulse(c, rate / self.inv_effective_mass(), &mut yl);
-            let (x, vx) = (yl[X_S] * self.sin_a, yl[V_S] * self.sin_a);
-            match c {
-                Flank::Forward => (yl[DTE], yl[DDTE]) = (x, vx),
-                Flank::Backward => (yl[DTE], yl[DDTE]) = (-self.backlash - x, -vx),
-            }
+            self.touch(c, &mut yl);
+            let vx = yl[V_S] * self.sin_a;
+            yl[DDTE] = match c {
+                Flank::Forward => vx,
+                Flank::Backward => -vx,
+            };
             if matches!(self.constraint_force(c, &yl), Some((n, _)) if n >= 0.0) {
                 self.sign[EventFn::Pen(c).index()] = true;
                 self.sign[EventFn::Rel(c).index()] = true;

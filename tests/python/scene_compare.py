@@ -62,11 +62,12 @@ from reference_model import gearmesh_ref as G  # noqa: E402
 
 # Everything the FMU's outputs have in common with the reference trace (all of it is cheap to
 # record; the statistics need theta_A, n_fwd, n_bwd besides the compared variables).
-OUTPUTS = [n for n in G.OUTPUT_NAMES if n != "time"]
+OUTPUTS = [n for n in G.OUTPUT_NAMES if n != "time"] + G.BEARING_OUTPUT_NAMES
 UNITS = {
     "theta_A": "rad", "theta_B": "rad", "w_A": "rad/s", "w_B": "rad/s", "dte": "m",
     "F_f1": "N", "F_f2": "N", "F_b1": "N", "F_b2": "N", "F_fwd": "N", "F_bwd": "N",
     "n_fwd": "", "n_bwd": "", "tau_mesh_A": "N.m", "tau_mesh_B": "N.m", "P_loss": "W",
+    "F_B_x": "N", "F_B_y": "N",
     "mean_w_A": "rad/s", "mean_w_B": "rad/s", "mean_w_A_over_w_B": "", "rms_dte": "m",
     "max_dte": "m", "min_dte": "m", "impacts_per_mesh_cycle": "",
     "flank_switches_per_mesh_cycle": "", "switching_time": "s",

@@ -485,7 +485,10 @@ def test_scene_files(name):
     path = os.path.join(ROOT, "tests", "reference", name + ".csv")
     with open(path) as f:
         head = f.readline().strip()
-    assert head == ",".join(f'"{n}"' for n in G.OUTPUT_NAMES)
+    expected = list(G.OUTPUT_NAMES)
+    if sc.get("start_values", {}).get("contact_model", 1) == 2:
+        expected += G.BEARING_OUTPUT_NAMES       # rigid scenes also carry F_B_x, F_B_y
+    assert head == ",".join(f'"{n}"' for n in expected)
     names, table = G.read_table_csv(path)
     assert np.all(np.diff(table[:, 0]) >= 0)
     assert abs(table[-1, 0] - sc["stop_time"]) < 1e-12
@@ -502,3 +505,303 @@ def test_committed_reference_is_current():
     assert table.shape == res.table.shape
     scale = np.maximum(np.abs(res.table).max(axis=0), 1e-300)
     assert np.all(np.abs(table - res.table) <= 1e-12 * scale)
+
+
+# ------------------------------------------------------------------------------ rigid contact
+RIGID = dict(contact_model=2, chi=0.0)
+
+
+def kinetic(m, y):
+    return m.kinetic_energy(y)
+
+
+@pytest.mark.parametrize("flank", [1, -1])
+def test_rigid_locked_exact(flank):
+    """rig-and-modes.md section 2, exact check: paper rig, mu = 0, locked from t = 0, tau_B = 0:
+    (J_A + J_B/i^2) dw_A/dt = tau_A - c_load w_A/i^2, i = rBb/rAb, so w_A is an exponential
+    towards tau_A i^2/c_load, and the force is F = (J_B dw_B/dt + c_load w_B)/rBb (backward
+    flank: its negative).  Bound 1e-9 relative: the reference integrates this smooth motion at
+    rtol 1e-11 (its error is ~1e-12 relative); a wrong inertia, ratio or force law is off by
+    O(1)."""
+    g = G.Geometry(G.make_params())
+    wA0 = 20.0 * flank
+    sv = dict(RIGID, tau_A=100.0 * flank, c_load=2.0, w_A_start=wA0,
+              w_B_start=wA0 * g.rAb / g.rBb, dte_start=0.0 if flank == 1 else -g.backlash)
+    m = G.GearMesh(sv)
+    res = m.simulate(0.5, 1e-3, rtol=1e-11)
+    p = m.p
+    i = g.rBb / g.rAb
+    J = p["J_A"] + p["J_B"] / i ** 2
+    lam = p["c_load"] / (i ** 2 * J)
+    w_inf = p["tau_A"] * i ** 2 / p["c_load"]
+    t = res.column("time")
+    wA = w_inf + (wA0 - w_inf) * np.exp(-lam * t)
+    dwA = -lam * (wA0 - w_inf) * np.exp(-lam * t)
+    F = flank * (p["J_B"] * dwA / i + p["c_load"] * wA / i) / g.rBb
+    assert np.all(F > 0)
+    assert np.max(np.abs(res.column("w_A") - wA)) <= 1e-9 * np.max(np.abs(wA))
+    assert np.max(np.abs(res.column("w_B") - wA / i)) <= 1e-9 * np.max(np.abs(wA / i))
+    Fout = res.column("F_fwd" if flank == 1 else "F_bwd")
+    assert np.max(np.abs(Fout - F)) <= 1e-9 * np.max(F)
+    assert np.all(res.column("F_bwd" if flank == 1 else "F_fwd") == 0.0)
+    assert np.all(res.column("dte") == (0.0 if flank == 1 else -g.backlash))   # held exactly
+    n = res.column("n_fwd" if flank == 1 else "n_bwd")
+    assert set(np.unique(n)) == {1.0, 2.0}           # pair switches happened, force unchanged
+    assert len(res.events) > 10 and all(e[5] == "pair switch" for e in res.events)
+
+
+def test_rigid_impact_energy_law():
+    """Newton's impact (rig-and-modes.md section 2): with e = 1 the kinetic energy is conserved,
+    with e = 0 it loses 1/2 m_eff v_-^2; the relative speed after is -e v_-; both flanks.
+    Bounds: relative 1e-13 of the kinetic energy (~1e3 J, a few roundings) for e = 1, 1e-9 of the
+    loss for e = 0 (the loss is ~1e-2 J, the difference of two ~1e3 J numbers)."""
+    g = G.Geometry(G.make_params())
+    for flank in (1, -1):
+        for e in (1.0, 0.0):
+            m = G.GearMesh(dict(RIGID, restitution=e, tau_A=0.0))
+            R = G.RigidMesh(m)
+            vm = 0.05                              # approach speed [m/s]
+            wA = 100.0
+            y = np.array([0.3, 0.0 if flank == 1 else -g.backlash, wA, flank * vm])
+            st, ya, kind = R.impact(flank, y, 0.0, 0.0)
+            assert ya[3] == -e * flank * vm or (e == 0.0 and ya[3] == 0.0)
+            K0, K1 = kinetic(m, y), kinetic(m, ya)
+            if e == 1.0:
+                assert kind == "rebound" and st.mode == G.FREE
+                assert abs(K1 - K0) <= 1e-13 * K0
+            else:
+                assert kind == "lock" and st.mode == flank
+                loss = 0.5 * R.m_eff * vm ** 2
+                assert abs((K0 - K1) - loss) <= 1e-9 * loss
+            # the impulse acts along the line of action: J_A dw_A = -flank P rAb,
+            # J_B dw_B = +flank P rBb with the same P
+            wB0 = (g.rAb * y[2] - y[3]) / g.rBb
+            wB1 = (g.rAb * ya[2] - ya[3]) / g.rBb
+            PA = -flank * m.p["J_A"] * (ya[2] - y[2]) / g.rAb
+            PB = flank * m.p["J_B"] * (wB1 - wB0) / g.rBb
+            assert abs(PA - (1 + e) * R.m_eff * vm) <= 1e-9 * PA and abs(PB - PA) <= 1e-9 * PA
+
+
+def test_rigid_elastic_rattle_conserves_energy():
+    """e = 1, mu = 0, no torques: free flights across the backlash and elastic impacts on both
+    flanks forever (the lock rule never applies: the approach acceleration is 0); the kinetic
+    energy is constant (1e-12 relative) and the flanks alternate."""
+    g = G.Geometry(G.make_params())
+    wA = 10.0
+    sv = dict(RIGID, restitution=1.0, dte_start=-g.backlash / 2, w_A_start=wA,
+              w_B_start=(g.rAb * wA - 0.02) / g.rBb)
+    m = G.GearMesh(sv)
+    res = m.simulate(0.05, 1e-4, rtol=1e-11)
+    K = [m.kinetic_energy([r[1] * 0, r[5], r[3], g.rAb * r[3] - g.rBb * r[4]]) for r in res.table]
+    assert max(K) - min(K) <= 1e-12 * max(K)
+    assert np.all(res.column("n_fwd") == 0) and np.all(res.column("n_bwd") == 0)
+    dte = res.column("dte")
+    # a free flight ends when delta reaches RigidMesh.BAND (1e-18 m): a grid row may fall there
+    assert dte.max() <= G.RigidMesh.BAND and dte.min() >= -g.backlash - G.RigidMesh.BAND
+    imp = [e for e in res.events if e[5] == "impact+rebound"]
+    assert len(imp) >= 8
+    sides = [1 if abs(dte[np.flatnonzero(res.column("time") == e[0])[0]]) < 1e-12 else -1
+             for e in imp]
+    assert all(a != b for a, b in zip(sides, sides[1:]))
+
+
+def test_rigid_plastic_impact_in_simulation():
+    """e = 0, no torques: one impact, then the kinetic energy is the initial one less
+    1/2 m_eff v_-^2 (the speeds stay constant: N = 0, locked or free alike)."""
+    g = G.Geometry(G.make_params())
+    wA, v0 = 10.0, 0.03
+    m = G.GearMesh(dict(RIGID, dte_start=-g.backlash / 2, w_A_start=wA,
+                        w_B_start=(g.rAb * wA - v0) / g.rBb))
+    R = G.RigidMesh(m)
+    res = m.simulate(0.01, 1e-4, rtol=1e-11)
+    imp = [e for e in res.events if e[5].startswith("impact")]
+    # N = 0 exactly after the lock (no load): the release event may follow at the same instant
+    assert len(imp) == 1 and imp[0][5].startswith("impact+lock")
+    assert abs(imp[0][0] - (g.backlash / 2) / v0) <= 1e-12
+    y0 = m.initial_state()
+    last = res.table[-1]
+    y1 = [0.0, last[5], last[3], g.rAb * last[3] - g.rBb * last[4]]
+    loss = 0.5 * R.m_eff * v0 ** 2
+    assert abs(m.kinetic_energy(y0) - m.kinetic_energy(y1) - loss) <= 1e-9 * loss
+
+
+def moment_about_OB(g, flank, sB, Fn, Ft):
+    u, ub, tf, tb = G.line_vectors(g)
+    n, t = (u, tf) if flank == 1 else (ub, tb)
+    fx, fy = Fn * n[0] + Ft * t[0], Fn * n[1] + Ft * t[1]
+    px, py = G.contact_point_on_B(g, flank, sB)
+    return (px - g.d) * fy - py * fx
+
+
+def table_torque_B(g, flank, sB, Fn, Ft):
+    return (Fn * g.rBb - Ft * sB) if flank == 1 else (-Fn * g.rBb - Ft * sB)
+
+
+def test_bearing_force_moment_rigid():
+    """rig-and-modes.md section 1: the moment of each pair's force on B about O_B, taken at its
+    contact point K_B - s_B u (K_B' - s_B u_b backward), equals the table's torque on B; summed,
+    tau_mesh_B; F_B is the sum of the pair forces.  Rigid contact with friction (mu = 0.3),
+    both flanks, positions over a whole base pitch (single and double contact, both sides of the
+    pitch point).  The contact point seen from A (K_A + s_A u) is the same point.  Bound 1e-12
+    relative (a few roundings of O(1e3) N.m)."""
+    g = G.Geometry(G.make_params())
+    m = G.GearMesh(dict(RIGID, mu=0.3, tau_A=100.0, c_load=2.0))
+    R = G.RigidMesh(m)
+    u, ub, _, _ = G.line_vectors(g)
+    a = g.alpha_w
+    n_checked = set()
+    for flank, tauA in ((1, 100.0), (-1, -100.0)):
+        for uA in np.linspace(0.0, g.p_b, 37):
+            y = np.array([uA / g.rAb, 0.0 if flank == 1 else -g.backlash, 50.0, 0.0])
+            st = R._lock(flank, y, tauA, 0.0)
+            assert st is not None and st.mode == flank
+            N, pairs, mA, mB = R.pair_forces(st, y, tauA, 0.0)
+            assert N > 0
+            tot = 0.0
+            for fl, k, sA, sB, Fn, Ft, vs in pairs:
+                M = moment_about_OB(g, fl, sB, Fn, Ft)
+                T = table_torque_B(g, fl, sB, Fn, Ft)
+                assert abs(M - T) <= 1e-12 * abs(Fn) * g.rBb
+                tot += T
+                # the same point from A: K_A + s_A u (forward), K_A' + s_A u_b (backward)
+                if fl == 1:
+                    qa = (g.rAb * math.cos(a) + sA * u[0], g.rAb * math.sin(a) + sA * u[1])
+                else:
+                    qa = (g.rAb * math.cos(a) + sA * ub[0], -g.rAb * math.sin(a) + sA * ub[1])
+                qb = G.contact_point_on_B(g, fl, sB)
+                assert math.hypot(qa[0] - qb[0], qa[1] - qb[1]) <= 1e-15 * g.d * 10
+            assert abs(tot - mB) <= 1e-12 * abs(mB)
+            fx, fy = G.mesh_force_on_B(g, pairs)
+            tf, tb = (math.cos(a), math.sin(a)), (-math.cos(a), math.sin(a))
+            sx = sum(Fn * (u if fl == 1 else ub)[0] + Ft * (tf if fl == 1 else tb)[0]
+                     for fl, _, _, _, Fn, Ft, _ in pairs)
+            sy = sum(Fn * (u if fl == 1 else ub)[1] + Ft * (tf if fl == 1 else tb)[1]
+                     for fl, _, _, _, Fn, Ft, _ in pairs)
+            assert abs(fx - sx) <= 1e-12 * N and abs(fy - sy) <= 1e-12 * N
+            assert any(abs(Ft) > 0.1 * abs(Fn) for *_, Fn, Ft, _ in pairs)   # friction acts
+            n_checked.add((flank, len(pairs)))
+    assert n_checked == {(1, 1), (1, 2), (-1, 1), (-1, 2)}
+
+
+def test_bearing_force_moment_compliant():
+    """The same moment check on the Johnson model (mu = 0.3, chi = 10, a torque reversal: both
+    flanks carry), on the carrying pairs of the integration segments; and with mu = 0 the
+    outputs satisfy F_B,x = (F_fwd + F_bwd) sin a, F_B,y = (F_bwd - F_fwd) cos a (both flanks
+    push the wheels apart)."""
+    inp = G.InputTable([0.0, 0.002, 0.002, 0.006], [100.0, 100.0, -400.0, -400.0],
+                       [0.0, 0.0, 0.0, 0.0])
+    sv = dict(PAPER, chi=10.0, mu=0.3, **RUNNING)
+    sv["dte_start"] = G.quasi_static_dte(sv, 2)
+    m = G.GearMesh(sv)
+    g = m.g
+    res = m.simulate(0.006, 1e-4, inputs=inp, rtol=1e-10, energy=True)
+    flanks = set()
+    for t0, t1, solf, cfg in res.energy["segments"]:
+        if t1 <= t0:
+            continue
+        for tt in np.linspace(t0, t1, 4):
+            y = solf(tt)
+            pairs = m.pair_forces(y, cfg)
+            mA, mB, _ = m._mesh(g.rAb * y[0], y[1], y[2], y[3], cfg.kf, cfg.kb)
+            tot = 0.0
+            for fl, k, sA, sB, Fn, Ft, vs in pairs:
+                M = moment_about_OB(g, fl, sB, Fn, Ft)
+                assert abs(M - table_torque_B(g, fl, sB, Fn, Ft)) <= 1e-12 * max(Fn, 1.0) * g.rBb
+                tot += M
+                flanks.add(fl)
+            if all(p[4] > 0 for p in pairs):      # no clamped force: the sum is the mesh torque
+                assert abs(tot - mB) <= 1e-9 * max(abs(mB), 1.0)
+    assert flanks == {1, -1}
+    m0 = G.GearMesh(dict(PAPER, **RUNNING))
+    r0 = m0.simulate(0.01, 1e-4, inputs=inp, rtol=1e-10, bearing_force=True)
+    a = m0.g.alpha_w
+    Ff, Fb = r0.column("F_fwd"), r0.column("F_bwd")
+    assert Fb.max() > 0 and Ff.max() > 0
+    assert np.max(np.abs(r0.column("F_B_x") - (Ff + Fb) * math.sin(a))) <= 1e-12 * Ff.max()
+    assert np.max(np.abs(r0.column("F_B_y") - (Fb - Ff) * math.cos(a))) <= 1e-12 * Ff.max()
+    # the default output set of the compliant model is unchanged
+    assert m0.simulate(0.001, 1e-4).names == G.OUTPUT_NAMES
+
+
+def test_rigid_start_rules():
+    """Start (t = 0): dte_start outside [-backlash, 0] is an error; on a flank, an approach
+    speed above v_res is an impact at t = 0, a separating one starts free, one within v_res
+    locks (relative speed set to exactly 0)."""
+    g = G.Geometry(G.make_params())
+    with pytest.raises(ValueError, match="dte_start"):
+        G.GearMesh(dict(RIGID, dte_start=1e-9)).simulate(1e-3, 1e-4)
+    with pytest.raises(ValueError, match="dte_start"):
+        G.GearMesh(dict(RIGID, dte_start=-1.1 * g.backlash)).simulate(1e-3, 1e-4)
+    wA = 100.0
+    for dv, first in ((1e-3, "impact"), (-1e-3, "free"), (0.0, "locked")):
+        sv = dict(RIGID, tau_A=100.0, c_load=2.0, w_A_start=wA,
+                  w_B_start=(g.rAb * wA - dv) / g.rBb)
+        res = G.GearMesh(sv).simulate(2e-3, 1e-4)
+        nf = res.column("n_fwd")
+        if first == "impact":
+            assert res.events[0][0] == 0.0 and res.events[0][5] == "impact+lock"
+            assert res.table[0, res.names.index("n_fwd")] == 0 and nf[1] > 0
+        elif first == "free":      # tau_A brings the flanks back: a later impact locks them
+            assert nf[0] == 0
+            assert res.events[0][0] > 0.0 and res.events[0][5] == "impact+lock"
+        else:
+            assert nf[0] > 0 and not any(e[5].startswith("impact") for e in res.events)
+            assert np.all(res.column("dte") == 0.0)
+
+
+def test_rigid_no_zeno_lock_rule():
+    """restitution 0.7 (the rigid-reversal-bounce scene): each series of rebounds ends in a lock
+    when the next free flight (2 e v_- / a) would be shorter than 1e-6 s: the last flight before
+    the lock is at least ~1e-6 s and 0.7 of it is below (1 % margin for the slowly changing
+    approach acceleration); the rebound flight times shrink by ~e."""
+    sc = G.load_scene("rigid-reversal-bounce")
+    m, inp = G.scene_model(sc)
+    res = m.simulate(sc["stop_time"], sc["output_interval"], inp, rtol=1e-10)
+    imp = [e for e in res.events if e[5].startswith("impact")]
+    locks = [i for i, e in enumerate(imp) if e[5] == "impact+lock"]
+    assert len(locks) == 2
+    for i in locks:
+        last = imp[i][0] - imp[i - 1][0]
+        assert 0.99e-6 <= last and 0.7 * last < 1.01e-6, last
+        prev = imp[i - 1][0] - imp[i - 2][0]
+        assert abs(last / prev - 0.7) < 0.01
+
+
+def test_rigid_zero_backlash_two_sided():
+    """backlash = 0: the constraint is two-sided, the wheels never go free; when the torque
+    reverses, N changes sign and the load moves to the backward flank (F_fwd F_bwd = 0)."""
+    inp = G.InputTable([0.0, 0.01, 0.01, 0.02], [100.0, 100.0, -100.0, -100.0], [0.0] * 4)
+    sv = dict(RIGID, backlash=0.0, tau_A=100.0, c_load=2.0, **RUNNING)
+    res = G.GearMesh(sv).simulate(0.02, 1e-4, inputs=inp, rtol=1e-10)
+    nf, nb = res.column("n_fwd"), res.column("n_bwd")
+    assert np.all(nf + nb > 0)
+    assert np.all(res.column("F_fwd") * res.column("F_bwd") == 0)
+    assert nf[0] > 0 and nb[-1] > 0
+    assert np.all(res.column("dte") == 0.0)
+
+
+def test_rigid_object_identity_matches_spec_tracking():
+    """As test_object_identity_matches_spec_tracking, on the rigid-reversal scene: whenever
+    F_f1/F_f2/F_b1/F_b2 > 0, that tracking object's own pair is gated at delta = 0
+    (s_a <= s_A <= s_b), and each equals F_fwd (F_bwd) / n_fwd (n_bwd)."""
+    sc = G.load_scene("rigid-reversal")
+    m, inp = G.scene_model(sc)
+    g = m.g
+    res = m.simulate(sc["stop_time"], sc["output_interval"], inp, rtol=1e-10)
+    r = res.grid()
+    col = lambda n: r[:, res.names.index(n)]
+    thA = col("theta_A")
+    phiA0 = {"f1": g.phiA_f1, "f2": g.phiA_f1 - g.dA, "b1": g.phiA_f1 - g.dA + g.tA}
+    b2 = phiA0["b1"] - g.dA
+    phiA0["b2"] = b2 if -g.phi_max <= b2 <= -g.phi_min else phiA0["b1"] + g.dA
+    span = g.m_c * g.dA
+    for name, p0 in phiA0.items():
+        fwd = name[0] == "f"
+        lo = g.phi_min if fwd else -g.phi_max
+        phi = lo + np.mod(p0 - thA - lo, span)
+        sA = g.rAb * (g.alpha_w - phi) if fwd else g.rAb * (g.alpha_w + phi)
+        on = col("F_" + name) > 0
+        assert on.sum() > 10, name
+        assert np.all((sA[on] <= g.s_b + 1e-12) & (sA[on] >= g.s_a - 1e-12)), name
+        tot, n = (col("F_fwd"), col("n_fwd")) if fwd else (col("F_bwd"), col("n_bwd"))
+        assert np.allclose(col("F_" + name)[on], tot[on] / n[on], rtol=1e-14, atol=0)

@@ -45,6 +45,11 @@ fmi-interface.md, built *differently* from an object-tracking implementation:
   coordinates e, v are integrated directly so that their error is controlled in absolute terms
   (a few 1e-16 m) instead of being a difference of two large angles.
 
+contact_model = 2 (rigid contact, rig-and-modes.md section 2, without slider and housing motion)
+is the separate class RigidMesh below (GearMesh.simulate dispatches to it); contact_model = 1
+runs exactly the code above.  Both can append the outputs F_B_x, F_B_y (mesh force on B in the
+paper frame, rig-and-modes.md section 1; simulate(bearing_force=...), default: rigid only).
+
 Readings of the spec where it leaves room (each is marked where it is implemented):
 * gate ties at a restart count as inside (closed gate, the spec's ">="); an exact equilibrium
   on a gate boundary selects "inside" (GearMesh._classify);
@@ -74,6 +79,10 @@ OUTPUT_NAMES = [
     "F_f1", "F_f2", "F_b1", "F_b2", "F_fwd", "F_bwd", "n_fwd", "n_bwd",
     "tau_mesh_A", "tau_mesh_B", "P_loss",
 ]
+# Mesh force on B in the paper frame (rig-and-modes.md section 1).  Not in OUTPUT_NAMES, so that
+# the committed traces of the compliant scenes and the FMU comparison's request list stay as they
+# are; simulate(bearing_force=True) appends them (default: only with contact_model = 2).
+BEARING_OUTPUT_NAMES = ["F_B_x", "F_B_y"]
 
 # Parameter and input defaults (identical to the FMU's start values).
 DEFAULTS = {
@@ -90,8 +99,10 @@ DEFAULTS = {
     "w_A_start": 0.0, "w_B_start": 0.0, "dte_start": 0.0,
     "tau_A": 0.0, "tau_B": 0.0,
     "solver": 1, "rel_tol": 1e-6,
+    "contact_model": 1, "restitution": 0.0,
 }
-INTEGER_PARAMS = {"geometry", "zA_nominal", "zB_nominal", "zA", "zB", "contacts_per_flank", "solver"}
+INTEGER_PARAMS = {"geometry", "zA_nominal", "zB_nominal", "zA", "zB", "contacts_per_flank", "solver",
+                  "contact_model"}
 BOOLEAN_PARAMS = {"backward_contacts"}
 
 
@@ -411,6 +422,11 @@ class GearMesh:
     def __init__(self, start_values: dict | None = None):
         self.p = make_params(start_values)
         self.g = Geometry(self.p)
+        if self.p["contact_model"] not in (1, 2):
+            raise ValueError(f"contact_model must be 1 (Johnson) or 2 (rigid) in this reference, "
+                             f"got {self.p['contact_model']}")
+        if not 0.0 <= self.p["restitution"] <= 1.0:
+            raise ValueError(f"restitution must lie in [0, 1], got {self.p['restitution']!r}")
 
     # ---------------------------------------------------------------- mesh forces
     def _mesh(self, uA, e, wA, v, kf, kb, detail=False):
@@ -713,7 +729,10 @@ class GearMesh:
         return None
 
     # ---------------------------------------------------------------- outputs
-    def outputs(self, t, y, cfg):
+    def outputs(self, t, y, cfg, bearing=False):
+        if bearing:
+            pairs = self.pair_forces(y, cfg)
+            return self.outputs(t, y, cfg) + list(mesh_force_on_B(self.g, pairs))
         g = self.g
         thA, e, wA, v = y[0], y[1], y[2], y[3]
         uA = g.rAb * thA
@@ -744,10 +763,45 @@ class GearMesh:
         return johnson_delta(F / p["width"], g.L, g.E_star)
 
     # ---------------------------------------------------------------- main loop
+    def pair_forces(self, y, cfg):
+        """Per carrying pair: (flank, k, s_A, s_B, F_n, F_t, v_s) as in _mesh (F_n clamped >= 0
+        as in the reported forces).  Only for the bearing-force outputs; the dynamics use _mesh."""
+        g, p = self.g, self.p
+        rAb, rBb, L = g.rAb, g.rBb, g.L
+        thA, e, wA, v = y[0], y[1], y[2], y[3]
+        uA = rAb * thA
+        wB = (rAb * wA - v) / rBb
+        mA, mB, ploss, forces = self._mesh(uA, e, wA, v, cfg.kf, cfg.kb, detail=True)
+        out = []
+        for flank, k, Fn in forces:
+            if flank == 1:
+                d = e
+                sA = g.s_a + uA - k * g.p_b
+            else:
+                d = -g.backlash - e
+                sA = g.sigma_b1 - uA + k * g.p_b
+            sB = L + d - sA
+            vs = -wA * sA + wB * sB
+            Fn = max(Fn, 0.0)
+            Ft = p["mu"] * math.tanh(vs / p["v_reg"]) * Fn if p["mu"] != 0.0 else 0.0
+            out.append((flank, k, sA, sB, Fn, Ft, vs))
+        return out
+
     def simulate(self, stop_time, output_interval, inputs: InputTable | None = None,
                  rtol=1e-10, method="DOP853", energy=False, max_restarts=2_000_000,
-                 perturb_w_A=0.0, y0=None):
-        """Integrate over [0, stop_time]; sample on k*output_interval and at every event."""
+                 perturb_w_A=0.0, y0=None, bearing_force=None):
+        """Integrate over [0, stop_time]; sample on k*output_interval and at every event.
+
+        bearing_force: append the outputs F_B_x, F_B_y (default: only with contact_model = 2)."""
+        if bearing_force is None:
+            bearing_force = self.p["contact_model"] == 2
+        if self.p["contact_model"] == 2:
+            if energy:
+                raise NotImplementedError("energy bookkeeping is for contact_model = 1 only")
+            return RigidMesh(self).simulate(stop_time, output_interval, inputs, rtol=rtol,
+                                            method=method, max_restarts=max_restarts,
+                                            perturb_w_A=perturb_w_A, y0=y0,
+                                            bearing_force=bearing_force)
         p, g = self.p, self.g
         if inputs is None:
             inputs = InputTable.constant(p["tau_A"], p["tau_B"])
@@ -871,7 +925,7 @@ class GearMesh:
             i = min(max(i, 0), len(segments) - 1)
             t0, t1, solf, c = segments[i]
             yy = solf(tg) if t1 > t0 else solf(t0)
-            rows.append(self.outputs(tg, yy, c))
+            rows.append(self.outputs(tg, yy, c, bearing_force))
         merged = []
         for ev in events:   # merge coincident events into one before/after pair
             if merged and ev[0] == merged[-1][0]:
@@ -882,15 +936,16 @@ class GearMesh:
         for te, ye, cb, ca in merged:
             if cb.key == ca.key:
                 continue
-            rows.append(self.outputs(te, ye, cb))
-            rows.append(self.outputs(te, ye, ca))
+            rows.append(self.outputs(te, ye, cb, bearing_force))
+            rows.append(self.outputs(te, ye, ca, bearing_force))
             ev_list.append((te, len(cb.kf), len(cb.kb), len(ca.kf), len(ca.kb)))
         # stable sort by time: grid rows first in insertion order, event rows keep before/after
         order = sorted(range(len(rows)), key=lambda i: (rows[i][0], 0 if i < len(grid) else 1, i))
         # a grid row coinciding exactly with an event time is dropped (the event rows cover it)
         ev_times = {e[0] for e in ev_list}
         table = np.array([rows[i] for i in order if not (i < len(grid) and rows[i][0] in ev_times)])
-        res = Result(list(OUTPUT_NAMES), table, ev_list, n_restart, n_missed=n_missed,
+        res = Result(list(OUTPUT_NAMES) + (BEARING_OUTPUT_NAMES if bearing_force else []),
+                     table, ev_list, n_restart, n_missed=n_missed,
                      n_hidden=n_hidden)
         if energy:
             res.energy = {"segments": segments, "jumps": energy_jumps}
@@ -920,6 +975,577 @@ class GearMesh:
         g, p = self.g, self.p
         wB = (g.rAb * y[2] - y[3]) / g.rBb
         return 0.5 * p["J_A"] * y[2] ** 2 + 0.5 * p["J_B"] * wB ** 2
+
+
+# --------------------------------------------------------------------------------------------
+# Mesh force on B (rig-and-modes.md section 1), shared by both contact models
+# --------------------------------------------------------------------------------------------
+
+def line_vectors(g):
+    """Paper-frame unit vectors: u (forward line of action), u_b (backward), the friction
+    directions t_f = (cos a, sin a) and t_b = (-cos a, sin a)."""
+    a = g.alpha_w
+    ca, sa = math.cos(a), math.sin(a)
+    return (sa, -ca), (sa, ca), (ca, sa), (-ca, sa)
+
+
+def mesh_force_on_B(g, pairs):
+    """F_B = sum_fwd [F_n u + F_t (cos a, sin a)] + sum_bwd [F_n u_b + F_t (-cos a, sin a)].
+    pairs: (flank, k, s_A, s_B, F_n, F_t, v_s) per carrying pair."""
+    u, ub, tf, tb = line_vectors(g)
+    fx = fy = 0.0
+    for flank, _k, _sA, _sB, Fn, Ft, _vs in pairs:
+        n, tt = (u, tf) if flank == 1 else (ub, tb)
+        fx += Fn * n[0] + Ft * tt[0]
+        fy += Fn * n[1] + Ft * tt[1]
+    return fx, fy
+
+
+def contact_point_on_B(g, flank, sB):
+    """Paper-frame contact point K_B - s_B u (forward) or K_B' - s_B u_b (backward)."""
+    a = g.alpha_w
+    ca, sa = math.cos(a), math.sin(a)
+    if flank == 1:
+        return g.d - g.rBb * ca - sB * sa, -g.rBb * sa + sB * ca
+    return g.d - g.rBb * ca - sB * sa, g.rBb * sa - sB * ca
+
+
+# --------------------------------------------------------------------------------------------
+# Rigid contact (contact_model = 2, rig-and-modes.md section 2), no slider, fixed housing
+# --------------------------------------------------------------------------------------------
+
+FREE, FWD, BWD = 0, 1, -1
+DBL_EPS = 2.220446049250313e-16
+
+
+@dataclass
+class RigidState:
+    """Mode between two restarts.  mode FREE, FWD (delta_f = 0 held) or BWD (delta_b = 0 held);
+    ks: the gated pairs of the locked flank (enumerated as in GearMesh: forward pair k has
+    s_A = s_a + u_A - k p_b, backward pair k has s_A = sigma_b1 - u_A + k p_b); lo, hi: the gate
+    boundaries (in u_A = rAb theta_A) just below and above, whose crossing is an event."""
+    mode: int
+    ks: tuple = ()
+    lo: float = -math.inf
+    hi: float = math.inf
+
+    @property
+    def key(self):
+        return (self.mode, self.ks)
+
+    @property
+    def n_fwd(self):
+        return len(self.ks) if self.mode == FWD else 0
+
+    @property
+    def n_bwd(self):
+        return len(self.ks) if self.mode == BWD else 0
+
+
+class RigidMesh:
+    """Rigid (unilateral-constraint) contact with Newton impacts, built on the same enumerated
+    pairs and state [theta_A, e, w_A, v] (e = dte, v = de/dt) as GearMesh.
+
+    Free: no mesh force; events: delta_f = e or delta_b = -backlash - e reaching 0 from below
+      (functions BAND - delta, terminal, + -> -; BAND = 1e-18 m keeps a flank the wheels have
+      just left, with v = 0 and an acceleration of rounding size, from re-firing at once).
+      Guards at the zeros of v catch a crossing hidden inside one step.
+    Locked (FWD or BWD): e is held exactly (0 or -backlash) and v = 0 exactly (the right-hand
+      side returns 0 for both); the total constraint force N along the line of action solves
+      d^2 delta/dt^2 = 0 with each gated pair carrying F_n = N/n and F_t = mu tanh(v_s/v_reg) F_n
+      (own s_A, s_B = L - s_A).  Events: N decreasing through 0 (release), u_A crossing a gate
+      boundary (lo/hi; gated pairs re-derived, N re-checked), input breakpoints (N re-checked).
+    Impact (flank reached with approach speed v_- > 0): P = (1+e) m_eff v_-, the relative
+      speed becomes -e v_- (set exactly), then the lock rule of the brief; when it locks, the
+      impulse is the plastic one m_eff v_- (the rebound is taken back along the line of action)
+      and v = 0 exactly.
+    backlash = 0: the constraint is two-sided (N of either sign, forward flank pairs when N >= 0,
+      backward ones when N < 0): an impact is plastic (the rebound would hit the other flank at
+      once) and the contact always locks; N reaching 0 moves the load to the other flank.
+    """
+
+    BAND = 1e-18        # m: a free flank fires when delta exceeds this
+    TOL_GATE = 1e-12    # m: a gate boundary this close to u_A at a restart is a tie (direction)
+    LOCK_TIME = 1e-6    # s: rebound flights shorter than this lock (no Zeno chatter)
+
+    def __init__(self, model):
+        self.m = model
+        self.p, self.g = model.p, model.g
+        g, p = self.g, self.p
+        self.inv_meff = g.rAb ** 2 / p["J_A"] + g.rBb ** 2 / p["J_B"]
+        self.m_eff = 1.0 / self.inv_meff
+        self.two_sided = g.backlash == 0.0
+        self.window = g.eps > g.m_c + 1e-12
+        # gate boundaries in u_A, as residues mod p_b: forward s_A = s_a (u_A = k p_b) and
+        # s_A = s_b (u_A = k p_b + s_b - s_a; the tracking window's s_b - m_c p_b has the same
+        # residue); backward s_A = s_a (u_A = sigma_b1 - s_a + k p_b), s_A = s_b (sigma_b1 - s_b)
+        self.res = {FWD: (0.0, g.s_b - g.s_a), BWD: (g.sigma_b1 - g.s_a, g.sigma_b1 - g.s_b)}
+
+    # ------------------------------------------------------------ geometry of the locked flank
+    def _sA(self, flank, uA, k):
+        g = self.g
+        return g.s_a + uA - k * g.p_b if flank == FWD else g.sigma_b1 - uA + k * g.p_b
+
+    def _gated(self, flank, uA, wA, aA, ties_inside=False):
+        """Pairs with s_a <= s_A <= s_b (and inside the tracking window) just after now, at
+        delta = 0; a boundary within TOL_GATE is decided by the direction of motion of s_A
+        (then its acceleration; at rest: inside)."""
+        g = self.g
+        rate, acc = (g.rAb * wA, g.rAb * aA) if flank == FWD else (-g.rAb * wA, -g.rAb * aA)
+        tol = self.TOL_GATE
+
+        def above(c, c1, c2):   # c >= 0 just after now, c' = c1, c'' = c2
+            if c > tol:
+                return True
+            if c < -tol:
+                return False
+            if ties_inside:
+                return True
+            if c1 != 0.0:
+                return c1 > 0.0
+            if c2 != 0.0:
+                return c2 > 0.0
+            return True
+
+        if flank == FWD:     # s_A in [s_a - p_b, s_b + p_b]
+            k0 = math.floor((uA + g.s_a - g.s_b) / g.p_b) - 1
+            k1 = math.ceil(uA / g.p_b) + 1
+        else:
+            k0 = math.floor((g.s_a - g.sigma_b1 + uA) / g.p_b) - 1
+            k1 = math.ceil((g.s_b - g.sigma_b1 + uA) / g.p_b) + 1
+        ks = []
+        for k in range(k0, k1 + 1):
+            sA = self._sA(flank, uA, k)
+            ok = above(sA - g.s_a, rate, acc) and above(g.s_b - sA, -rate, -acc)
+            if ok and self.window:
+                ok = above(sA - (g.s_b - g.m_c * g.p_b), rate, acc)
+            if ok:
+                ks.append(k)
+        return tuple(ks)
+
+    def _bounds(self, flank, uA, wA, aA):
+        """Nearest gate boundaries below and above u_A.  One within TOL_GATE (the one just
+        crossed) is moved TOL_GATE behind the motion: a reversal right there is caught
+        TOL_GATE late."""
+        p_b = self.g.p_b
+        tol = self.TOL_GATE
+        s = wA if wA != 0.0 else aA
+        lo, hi = -math.inf, math.inf
+        for r in self.res[flank]:
+            n = math.floor((uA - r) / p_b)
+            for b in (r + (n - 1) * p_b, r + n * p_b, r + (n + 1) * p_b, r + (n + 2) * p_b):
+                if abs(b - uA) <= tol:
+                    if s >= 0.0:
+                        lo = max(lo, b - tol)
+                    if s <= 0.0:
+                        hi = min(hi, b + tol)
+                elif b < uA:
+                    lo = max(lo, b)
+                else:
+                    hi = min(hi, b)
+        return lo, hi
+
+    # ------------------------------------------------------------ constraint force
+    def _coeffs(self, flank, ks, uA, wA):
+        """Per-unit-N torques on A and B (interface frame) and per-pair (k, s_A, s_B, f, v_s)
+        with f = mu tanh(v_s/v_reg), for the locked flank (delta = 0, w_B = w_A rAb/rBb)."""
+        g, p = self.g, self.p
+        rAb, rBb, L = g.rAb, g.rBb, g.L
+        mu, v_reg = p["mu"], p["v_reg"]
+        wB = rAb * wA / rBb
+        n = len(ks)
+        cA = cB = 0.0
+        per = []
+        for k in ks:
+            sA = self._sA(flank, uA, k)
+            sB = L - sA
+            vs = -wA * sA + wB * sB             # paper frame: omega_A = -w_A, omega_B = w_B
+            f = mu * math.tanh(vs / v_reg) if mu != 0.0 else 0.0
+            if flank == FWD:
+                cA += -rAb + f * sA
+                cB += rBb - f * sB
+            else:
+                cA += rAb + f * sA
+                cB += -rBb - f * sB
+            per.append((k, sA, sB, f, vs))
+        return cA / n, cB / n, per
+
+    def _constraint(self, flank, ks, uA, wA, tauA, tauB):
+        """(N, aA, cA, cB, per): N >= 0 pushes the locked flank's teeth together."""
+        g, p = self.g, self.p
+        J_A, J_B = p["J_A"], p["J_B"]
+        rAb, rBb = g.rAb, g.rBb
+        wB = rAb * wA / rBb
+        cA, cB, per = self._coeffs(flank, ks, uA, wA)
+        # d^2 e/dt^2 = rAb aA - rBb aB = 0, aA = (tauA + N cA)/J_A, aB = (tauB - c wB + N cB)/J_B
+        den = rAb * cA / J_A - rBb * cB / J_B
+        if flank * den >= 0.0:
+            raise RuntimeError(f"rigid contact jams: the constraint's mass coefficient {den!r} "
+                               f"has the wrong sign (friction too large for this geometry)")
+        N = (rBb * (tauB - p["c_load"] * wB) / J_B - rAb * tauA / J_A) / den
+        aA = (tauA + N * cA) / J_A
+        return N, aA, cA, cB, per
+
+    def _free_acc(self, y, tauA, tauB):
+        """aA, aB, d^2 e/dt^2 of the free motion."""
+        g, p = self.g, self.p
+        wB = (g.rAb * y[2] - y[3]) / g.rBb
+        aA = tauA / p["J_A"]
+        aB = (tauB - p["c_load"] * wB) / p["J_B"]
+        return aA, aB, g.rAb * aA - g.rBb * aB
+
+    def _try_lock(self, flank, y, tauA, tauB):
+        """RigidState for the flank locked at state y (v = 0, e on the flank), or None if no pair
+        is gated there or N < 0."""
+        uA, wA = self.g.rAb * y[0], y[2]
+        ks = self._gated(flank, uA, wA, 0.0, ties_inside=True)
+        if not ks:
+            return None
+        _N, aA, *_ = self._constraint(flank, ks, uA, wA, tauA, tauB)
+        ks = self._gated(flank, uA, wA, aA)
+        if not ks:
+            return None
+        N, aA, *_ = self._constraint(flank, ks, uA, wA, tauA, tauB)
+        if N < 0.0:
+            return None
+        lo, hi = self._bounds(flank, uA, wA, aA)
+        return RigidState(flank, ks, lo, hi)
+
+    def _lock(self, flank, y, tauA, tauB, prefer=None):
+        """Lock on flank (one-sided), or with backlash = 0 on whichever flank carries N >= 0
+        (prefer first).  Returns a RigidState or None."""
+        if not self.two_sided:
+            return self._try_lock(flank, y, tauA, tauB)
+        order = (prefer, -prefer) if prefer else (FWD, BWD)
+        for fl in order:
+            st = self._try_lock(fl, y, tauA, tauB)
+            if st is not None:
+                return st
+        raise RuntimeError("backlash = 0: neither flank can carry the constraint force")
+
+    def _flank_value(self, flank):
+        return 0.0 if flank == FWD else -self.g.backlash
+
+    def v_res(self, y):
+        g = self.g
+        wB = (g.rAb * y[2] - y[3]) / g.rBb
+        return 4.0 * DBL_EPS * (g.rAb * abs(y[2]) + g.rBb * abs(wB))
+
+    # ------------------------------------------------------------ impact
+    def impact(self, flank, y, tauA, tauB):
+        """Newton impact on flank at state y (the flank at delta = 0, approach speed v_- > 0).
+
+        Returns (state, y_after, kind) with kind 'lock' or 'rebound'."""
+        g, p = self.g, self.p
+        rAb, J_A = g.rAb, p["J_A"]
+        y = np.array(y, dtype=float)
+        y[1] = self._flank_value(flank)
+        vm = flank * y[3]                               # approach speed d(delta)/dt > 0
+        e = 0.0 if self.two_sided else p["restitution"]
+        # Newton: J_A dw_A = -flank P rAb (J_B dw_B = +flank P rBb follows from the new v)
+        P = (1.0 + e) * self.m_eff * vm
+        y1 = y.copy()
+        y1[2] = y[2] - flank * P * rAb / J_A
+        y1[3] = -e * y[3]
+        _aA, _aB, e2 = self._free_acc(y1, tauA, tauB)
+        a = flank * e2                                  # approach acceleration after the impact
+        lock = (e == 0.0 or (a > 0.0 and 2.0 * e * vm / a < self.LOCK_TIME)
+                or e * vm <= self.v_res(y1))
+        if lock:
+            yL = y.copy()
+            PL = self.m_eff * vm                        # plastic: the rebound taken back
+            yL[2] = y[2] - flank * PL * rAb / J_A
+            yL[3] = 0.0
+            st = self._lock(flank, yL, tauA, tauB, prefer=flank)
+            if st is not None:
+                return st, yL, "lock"
+        return RigidState(FREE), y1, "rebound"
+
+    # ------------------------------------------------------------ start
+    def start(self, y, tauA, tauB):
+        """Mode at t = 0 (rules of the brief).  Returns (state, y, impact) with impact None or
+        (y_before, kind)."""
+        g, p = self.g, self.p
+        e0 = y[1]
+        if not (-g.backlash <= e0 <= 0.0):
+            raise ValueError(f"rigid contact: dte_start = {e0!r} m lies outside [-backlash, 0] = "
+                             f"[{-g.backlash!r}, 0] m")
+        vres = self.v_res(y)
+        flanks = []
+        if e0 == 0.0:
+            flanks.append(FWD)
+        if e0 == -g.backlash and p["backward_contacts"]:
+            flanks.append(BWD)
+        if not flanks:
+            return RigidState(FREE), y, None
+        if self.two_sided:
+            if abs(y[3]) > vres:
+                fl = FWD if y[3] > 0 else BWD
+                st, ya, kind = self.impact(fl, y, tauA, tauB)
+                return st, ya, (y, kind)
+            yL = np.array(y, float)
+            yL[3] = 0.0
+            return self._lock(FWD, yL, tauA, tauB), yL, None
+        fl = flanks[0]
+        dd = fl * y[3]
+        if dd > vres:
+            st, ya, kind = self.impact(fl, y, tauA, tauB)
+            return st, ya, (y, kind)
+        if dd < -vres:
+            return RigidState(FREE), y, None
+        yL = np.array(y, float)
+        yL[3] = 0.0                  # relative speed exactly 0; w_A kept, w_B = w_A rAb/rBb
+        st = self._lock(fl, yL, tauA, tauB)
+        if st is not None:
+            return st, yL, None
+        return RigidState(FREE), y, None
+
+    # ------------------------------------------------------------ outputs
+    def pair_forces(self, st, y, tauA, tauB):
+        """(N, per-pair list (flank, k, s_A, s_B, F_n, F_t, v_s), tau_mesh_A, tau_mesh_B)."""
+        if st.mode == FREE:
+            return 0.0, [], 0.0, 0.0
+        uA, wA = self.g.rAb * y[0], y[2]
+        N, _aA, cA, cB, per = self._constraint(st.mode, st.ks, uA, wA, tauA, tauB)
+        Fn = N / len(st.ks)
+        pairs = [(st.mode, k, sA, sB, Fn, f * Fn, vs) for k, sA, sB, f, vs in per]
+        return N, pairs, N * cA, N * cB
+
+    def outputs(self, t, y, st, tauA, tauB, bearing):
+        g = self.g
+        thA, e, wA, v = y[0], y[1], y[2], y[3]
+        uA = g.rAb * thA
+        N, pairs, mA, mB = self.pair_forces(st, y, tauA, tauB)
+        F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
+        ploss = 0.0
+        for flank, k, _sA, _sB, Fn, Ft, vs in pairs:
+            F[("f" if flank == FWD else "b") + ("1" if k % g.m_c == 0 else "2")] += Fn
+            ploss += Ft * vs
+        row = [t, thA, (uA - e) / g.rBb, wA, (g.rAb * wA - v) / g.rBb, e,
+               F["f1"], F["f2"], F["b1"], F["b2"], F["f1"] + F["f2"], F["b1"] + F["b2"],
+               st.n_fwd, st.n_bwd, mA, mB, ploss]
+        if bearing:
+            row += list(mesh_force_on_B(g, pairs))
+        return row
+
+    # ------------------------------------------------------------ integration
+    def _rhs(self, st, seg):
+        g, p = self.g, self.p
+        rAb, rBb, J_A, J_B, c = g.rAb, g.rBb, p["J_A"], p["J_B"], p["c_load"]
+        t0, a0, da, b0, db = seg
+        if st.mode == FREE:
+            def rhs(t, y):
+                tauA = a0 + da * (t - t0)
+                tauB = b0 + db * (t - t0)
+                wB = (rAb * y[2] - y[3]) / rBb
+                aA = tauA / J_A
+                aB = (tauB - c * wB) / J_B
+                return [y[2], y[3], aA, rAb * aA - rBb * aB]
+            return rhs
+        fl, ks = st.mode, st.ks
+
+        def rhs(t, y):
+            tauA = a0 + da * (t - t0)
+            tauB = b0 + db * (t - t0)
+            _N, aA, *_ = self._constraint(fl, ks, rAb * y[0], y[2], tauA, tauB)
+            return [y[2], 0.0, aA, 0.0]
+        return rhs
+
+    def _events(self, st, seg):
+        g, p = self.g, self.p
+        rAb = g.rAb
+        t0, a0, da, b0, db = seg
+        evs, guards = [], []
+
+        def term(fn, kind):
+            fn.terminal, fn.direction, fn.kind = True, -1.0, kind
+            evs.append(fn)
+
+        band, jb = self.BAND, g.backlash
+        if st.mode == FREE:
+            term(lambda t, y: band - y[1], ("impact", FWD))
+            if p["backward_contacts"]:
+                term(lambda t, y: band + jb + y[1], ("impact", BWD))
+            gv = lambda t, y: y[3]
+            gv.terminal, gv.direction = False, 0.0
+            guards.append(gv)
+        else:
+            fl, ks = st.mode, st.ks
+
+            def N_of(t, y):
+                tauA = a0 + da * (t - t0)
+                tauB = b0 + db * (t - t0)
+                return self._constraint(fl, ks, rAb * y[0], y[2], tauA, tauB)[0]
+            term(N_of, ("release", fl))
+            lo, hi = st.lo, st.hi
+            if math.isfinite(lo):
+                term(lambda t, y: rAb * y[0] - lo, ("gate", fl))
+            if math.isfinite(hi):
+                term(lambda t, y: hi - rAb * y[0], ("gate", fl))
+        return evs, guards
+
+    def _hidden(self, sol, t0, evs, guards):
+        """A flank crossing hidden inside one step of free flight (delta rising above 0 and
+        back): between zeros of v, e is monotone, so it must straddle a zero of v.  Returns the
+        time and event of the first such crossing, or None."""
+        if not guards:
+            return None
+        from scipy.optimize import brentq
+        t_end = sol.t[-1]
+        roots = [float(x) for x in sol.t_events[len(evs)] if t0 < x < t_end]
+        steps = np.asarray(sol.t)
+        for tr in sorted(roots):
+            yr = sol.sol(tr)
+            bad = [fn for fn in evs if fn(tr, yr) < 0.0]
+            if not bad:
+                continue
+            i = int(np.searchsorted(steps, tr, side="left")) - 1
+            t_lo = float(steps[max(i, 0)])
+            best, which = tr, bad[0]
+            for fn in bad:
+                if fn(t_lo, sol.sol(t_lo)) > 0.0:
+                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, tr, xtol=1e-16, rtol=4e-16)
+                    if tc < best:
+                        best, which = tc, fn
+            return best, which
+        return None
+
+    def simulate(self, stop_time, output_interval, inputs=None, rtol=1e-10, method="DOP853",
+                 max_restarts=2_000_000, perturb_w_A=0.0, y0=None, bearing_force=True):
+        p, g = self.p, self.g
+        rAb = g.rAb
+        if inputs is None:
+            inputs = InputTable.constant(p["tau_A"], p["tau_B"])
+        y = self.m.initial_state() if y0 is None else np.array(y0, float)
+        # perturbation of the start speed: both wheels, rolling (v unchanged), unlike
+        # GearMesh (w_B fixed): under the constraint a relative speed of rAb*perturb_w_A would
+        # be an impact at t = 0 (the v_res rule), not a perturbed start of the same motion
+        y[2] += perturb_w_A
+        tau = lambda tt, sg: (sg[1] + sg[2] * (tt - sg[0]), sg[3] + sg[4] * (tt - sg[0]))
+
+        dscale = max(g.backlash, 1e-6)
+        wscale = max(1.0, abs(p["w_A_start"]), abs(p["w_B_start"]))
+        atol = np.array([1.0, dscale, wscale, dscale * 1e4]) * rtol
+        n_grid = int(round(stop_time / output_interval))
+        grid = np.arange(n_grid + 1) * output_interval
+        grid[-1] = stop_time
+
+        t = 0.0
+        seg = inputs.segment(t)
+        st, y, imp = self.start(y, *tau(t, seg))
+        events = []      # (t, y_before, st_before, seg_before, y_after, st_after, seg_after, kind)
+        if imp is not None:
+            events.append((0.0, imp[0], RigidState(FREE), seg, y, st, seg, "impact+" + imp[1]))
+        segments = []    # (t0, t1, dense output, state, input segment)
+        n_restart = n_hidden = n_missed = 0
+        same_t, last_t = 0, None
+        seg_max = 20.0 * output_interval
+        while t < stop_time:
+            seg = inputs.segment(t)
+            t_brk = min(inputs.next_break(t), stop_time)
+            t_hi = min(t_brk, t + seg_max)
+            if stop_time - t_hi < 1e-3 * output_interval:
+                t_hi = t_brk
+            rhs = self._rhs(st, seg)
+            evs, guards = self._events(st, seg)
+            sol = solve_ivp(rhs, (t, t_hi), y, method=method, rtol=rtol, atol=atol,
+                            events=evs + guards, dense_output=True, max_step=output_interval)
+            if sol.status < 0:
+                raise RuntimeError(f"solve_ivp failed at t = {t}: {sol.message}")
+            t_new = float(sol.t[-1])
+            y_new = sol.y[:, -1].copy()
+            fired = None
+            if sol.status == 1:
+                for i, fn in enumerate(evs):
+                    if len(sol.t_events[i]):
+                        fired = fn
+                        break
+            hid = self._hidden(sol, t, evs, guards)
+            if hid is not None and (fired is None or hid[0] < t_new):
+                t_new, fired = hid
+                y_new = np.asarray(sol.sol(t_new), dtype=float).copy()
+                n_hidden += 1
+            segments.append((t, t_new, sol.sol, st, seg))
+            n_restart += 1
+            if n_restart > max_restarts:
+                raise RuntimeError(f"more than {max_restarts} restarts at t = {t_new}")
+            seg_new = inputs.segment(t_new) if t_new < stop_time else seg
+            tau_old, tau_new = tau(t_new, seg), tau(t_new, seg_new)
+            kind = None
+            new_st, y_after = st, y_new
+            if fired is not None and fired.kind[0] == "impact":
+                fl = fired.kind[1]
+                y_new[1] = self._flank_value(fl)     # located at delta = BAND: on the flank
+                new_st, y_after, k2 = self.impact(fl, y_new, *tau_new)
+                kind = f"impact+{k2}"
+                if fl * y_new[3] <= self.v_res(y_new) and new_st.mode == FREE:
+                    _aA, _aB, e2 = self._free_acc(y_after, *tau_new)
+                    if fl * e2 > 0.0:
+                        raise RuntimeError(
+                            f"rigid contact inconsistent at t = {t_new}: the flank is reached "
+                            "at rest with N < 0 and a closing free acceleration (friction)")
+            elif fired is not None and fired.kind[0] == "release":
+                y_after = y_new.copy()
+                y_after[3] = 0.0
+                if self.two_sided:
+                    new_st = self._lock(st.mode, y_after, *tau_new, prefer=-st.mode)
+                    kind = "flank change"
+                else:
+                    new_st = RigidState(FREE)
+                    kind = "release"
+            elif st.mode != FREE:
+                # gate event, input breakpoint or segment end: gated set and N re-derived
+                new_st = self._lock(st.mode, y_new, *tau_new, prefer=st.mode)
+                if new_st is None:
+                    new_st = RigidState(FREE)
+                if fired is not None and fired.kind[0] == "gate":
+                    kind = "pair switch" if new_st.mode != FREE else "pair switch+release"
+                elif new_st.key != st.key:
+                    if t_new != t_brk:
+                        n_missed += 1
+                    kind = "input+release" if new_st.mode == FREE else "input+pair switch"
+                elif t_new == t_brk and tau_old != tau_new:
+                    kind = "input"          # N jumps with the input: rows before/after
+            if kind is not None:
+                events.append((t_new, y_new, st, seg, y_after, new_st, seg_new, kind))
+            if t_new == last_t:
+                same_t += 1
+                if same_t > 100:
+                    raise RuntimeError(f"rigid contact: more than 100 events at t = {t_new}")
+            else:
+                same_t, last_t = 0, t_new
+            t, y, st = t_new, np.asarray(y_after, float), new_st
+
+        # ---- sample
+        rows, n_grid_rows = [], len(grid)
+        seg_t0 = [s[0] for s in segments]
+        for tg in grid:
+            i = bisect.bisect_right(seg_t0, tg) - 1
+            i = min(max(i, 0), len(segments) - 1)
+            t0, t1, solf, sst, sseg = segments[i]
+            yy = solf(tg) if t1 > t0 else solf(t0)
+            if sst.mode != FREE:      # exact constraint values (the dense output keeps them too)
+                yy = np.array(yy, float)
+                yy[1], yy[3] = self._flank_value(sst.mode), 0.0
+            rows.append(self.outputs(tg, yy, sst, *tau(tg, sseg), bearing_force))
+        merged = []
+        for ev in events:   # coincident events: first before, last after
+            if merged and ev[0] == merged[-1][0]:
+                m0 = merged[-1]
+                merged[-1] = (ev[0], m0[1], m0[2], m0[3], ev[4], ev[5], ev[6], m0[7] + ", " + ev[7])
+            else:
+                merged.append(ev)
+        ev_list = []
+        for te, yb, sb, gb, ya, sa, ga, kind in merged:
+            rows.append(self.outputs(te, yb, sb, *tau(te, gb), bearing_force))
+            rows.append(self.outputs(te, ya, sa, *tau(te, ga), bearing_force))
+            ev_list.append((te, sb.n_fwd, sb.n_bwd, sa.n_fwd, sa.n_bwd, kind))
+        order = sorted(range(len(rows)), key=lambda i: (rows[i][0], 0 if i < n_grid_rows else 1, i))
+        ev_times = {e[0] for e in ev_list}
+        table = np.array([rows[i] for i in order
+                          if not (i < n_grid_rows and rows[i][0] in ev_times)])
+        names = list(OUTPUT_NAMES) + (BEARING_OUTPUT_NAMES if bearing_force else [])
+        return Result(names, table, ev_list, n_restart, n_missed=n_missed, n_hidden=n_hidden)
 
 
 # --------------------------------------------------------------------------------------------
