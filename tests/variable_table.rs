@@ -135,10 +135,19 @@ fn interface_names_exist() {
         "dte_start",
         "solver",
         "rel_tol",
+        // rig-and-modes.md
+        "contact_model",
+        "restitution",
+        "slider_stiffness",
+        "slider_damping",
+        "slider_mass",
     ] {
         assert!(params.contains(&p), "parameter {p}");
     }
-    assert_eq!(names(Causality::Input), ["tau_A", "tau_B"]);
+    assert_eq!(
+        names(Causality::Input),
+        ["tau_A", "tau_B", "alpha_housing", "a_housing_x"]
+    );
     let outputs = names(Causality::Output);
     for o in [
         "theta_A",
@@ -157,6 +166,9 @@ fn interface_names_exist() {
         "tau_mesh_A",
         "tau_mesh_B",
         "P_loss",
+        "x_slider",
+        "F_B_x",
+        "F_B_y",
     ] {
         assert!(outputs.contains(&o), "output {o}");
     }

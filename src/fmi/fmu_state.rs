@@ -279,8 +279,13 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     }
     crate::model::geometry::validate(&params)
         .map_err(|e| format!("parameters in the state: {e}"))?;
-    if let Some(bad) = [inputs.tau_A, inputs.tau_B].iter().find(|x| !x.is_finite()) {
-        return Err(format!("an input in the state is not finite ({bad})"));
+    for info in VARIABLES.iter().filter(|v| v.causality == Causality::Input) {
+        if let Some(bad) = inputs.get_real(info.var).filter(|x| !x.is_finite()) {
+            return Err(format!(
+                "input {} in the state is not finite ({bad})",
+                info.name
+            ));
+        }
     }
     let sim = if r.b()? {
         Some(read_sim(r, &params, &inputs, start_time)?)

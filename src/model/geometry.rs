@@ -93,7 +93,6 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         ("c_load", p.c_load),
         ("slider_stiffness", p.slider_stiffness),
         ("slider_damping", p.slider_damping),
-        ("slider_mass", p.slider_mass),
     ];
     for (name, v) in non_negative {
         if !(v >= 0.0 && v.is_finite()) {
@@ -142,6 +141,13 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         return Err(err("restitution", p.restitution, "must lie in [0, 1]"));
     }
     crate::model::rig::Slider::from_params(p)?;
+    if !(p.slider_mass >= 0.0) {
+        return Err(err(
+            "slider_mass",
+            p.slider_mass,
+            "must be zero or positive and finite",
+        ));
+    }
     for (name, z) in [("zA", p.zA), ("zB", p.zB)] {
         if z < 3 {
             return Err(err(name, z, "a wheel needs at least 3 teeth"));

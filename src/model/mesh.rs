@@ -168,7 +168,7 @@ impl Mesh {
             if !(p.dte_start >= -p.backlash && p.dte_start <= 0.0) {
                 return Err(ModelError::new(format!(
                     "parameter dte_start = {} m: with rigid contact (contact_model = 2) it must lie in [-backlash, 0] = [{}, 0]",
-                    p.dte_start, -p.backlash
+                    p.dte_start, 0.0 - p.backlash
                 )));
             }
             ContactModel::Rigid {
@@ -322,7 +322,8 @@ impl Mesh {
     /// Right-hand side with the current modes. Errors only when the Johnson law leaves its range.
     pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         let (load, locked) = if self.rigid() {
-            self.rigid_load(y)
+            let (load, locked) = self.rigid_load(y);
+            (load, locked.map(|(f, _)| f))
         } else {
             (self.compliant_load(y, None)?, None)
         };
@@ -426,11 +427,11 @@ impl Mesh {
         Some((n, unit))
     }
 
-    /// The rigid mesh's load and its locked flank (none when free).
-    fn rigid_load(&self, y: &State) -> (MeshLoad, Option<Flank>) {
+    /// The rigid mesh's load, its locked flank and constraint force (none when free).
+    fn rigid_load(&self, y: &State) -> (MeshLoad, Option<(Flank, f64)>) {
         match self.locked() {
             Some(f) => match self.constraint_force(f, y) {
-                Some((n, unit)) => (unit.scaled(n), Some(f)),
+                Some((n, unit)) => (unit.scaled(n), Some((f, n))),
                 None => (MeshLoad::default(), None),
             },
             None => (MeshLoad::default(), None),
@@ -927,13 +928,11 @@ impl Mesh {
             return Ok((pairs, load));
         }
         let (load, locked) = self.rigid_load(y);
-        if let Some(f) = locked {
-            let (n, _) = self
-                .constraint_force(f, y)
-                .expect("locked with gated pairs");
-            let (_, count) = self.unit_load(f, y).expect("locked with gated pairs");
+        if let Some((f, n)) = locked {
+            let gated = || (0..SLOTS).filter(move |&k| slot_flank(k) == f && self.gated(k));
+            let count = gated().count();
             let (w_a, w_b) = (y[W_A], self.w_b(y));
-            for k in (0..SLOTS).filter(|&k| slot_flank(k) == f && self.gated(k)) {
+            for k in gated() {
                 let fn_ = n / count as f64;
                 let mut ft = 0.0;
                 if self.loads.mu > 0.0 {
@@ -967,8 +966,8 @@ impl Mesh {
             }
         }
         let (balance, e_kin, e_el) = self.energy_terms(y)?;
-        let mut dy = [0.0; NY];
-        self.rhs(y, &mut dy)?;
+        // The right-hand side's dissipation, from the load already at hand.
+        let p_loss = load.p_loss + self.slider.map_or(0.0, |s| s.c * y[V_S] * y[V_S]);
         Ok(Outputs {
             theta_A: y[THETA_A],
             theta_B: (g.r_ab * y[THETA_A] - y[DTE]) / g.r_bb,
@@ -985,7 +984,7 @@ impl Mesh {
             n_bwd: n_flank[1],
             tau_mesh_A: load.tq_a,
             tau_mesh_B: load.tq_b,
-            P_loss: dy[W_LOSS],
+            P_loss: p_loss,
             s_f1: s[0],
             s_f2: s[1],
             s_b1: s[2],
@@ -1193,5 +1192,82 @@ mod tests {
         let (m, _) = Mesh::new(&p, &Inputs::default()).unwrap();
         assert_eq!(m.geo.m_c, 1);
         assert!(m.present(0) && !m.present(1) && m.present(2) && !m.present(3));
+    }
+
+    /// rig-and-modes §1 end to end: the vector force of every carrying pair (F_B_x, F_B_y of
+    /// the outputs, pair by pair), taken at B's contact point built from the spec's vectors
+    /// (forward K_B - s_B u, backward K_B' - s_B u_b), has the moment about O_B that the
+    /// right-hand side applies to B, and its opposite at A's contact point (K_A + s_A u) the
+    /// moment it applies to A (interface frame: theta_A = -psi_A, theta_B = psi_B). Both flanks,
+    /// with friction and damping, compliant and rigid, with double and single contact. Only
+    /// rounding separates them: sums of products of lengths below 0.5 m and forces, 1e-12.
+    #[test]
+    fn vector_forces_at_the_contact_points_give_the_torques() {
+        for (contact_model, dte) in [(1, 4e-7), (1, -1e-4 - 3e-7), (2, 0.0), (2, -1e-4)] {
+            for theta in [0.0, 0.004, 0.011] {
+                let p = Params {
+                    contact_model,
+                    chi: 5.0,
+                    mu: 0.3,
+                    dte_start: dte,
+                    w_A_start: 50.0,
+                    // The flank that carries is approaching (a rigid one then locks at t = 0).
+                    w_B_start: if dte < 0.0 { 34.0 } else { 33.0 },
+                    ..Params::default()
+                };
+                let tau = if dte < 0.0 { -100.0 } else { 100.0 };
+                let i = Inputs {
+                    tau_A: tau,
+                    ..Inputs::default()
+                };
+                let (mut m, mut y) = Mesh::new(&p, &i).unwrap();
+                // Move A on by theta at the same penetration and re-derive the gates there.
+                y[THETA_A] += theta;
+                m.init_signs(&mut y);
+                let (pairs, load) = m.pair_forces(&y).unwrap();
+                let g = m.geo.clone();
+                let (a, d) = (g.alpha_w, g.d);
+                let (mut m_a, mut m_b, mut n) = (0.0, 0.0, 0);
+                for k in (0..SLOTS).filter(|&k| m.carrying(k)) {
+                    let f = slot_flank(k);
+                    let (delta, _) = m.flank_delta(f, &y);
+                    let s_a = m.s_contact(k, &y);
+                    let s_b = g.l + delta - s_a;
+                    let (k_b, u) = match f {
+                        Flank::Forward => (
+                            (d - g.r_bb * a.cos(), -g.r_bb * a.sin()),
+                            (a.sin(), -a.cos()),
+                        ),
+                        Flank::Backward => {
+                            ((d - g.r_bb * a.cos(), g.r_bb * a.sin()), (a.sin(), a.cos()))
+                        }
+                    };
+                    // Each tooth's own contact point: they differ by the penetration along u.
+                    let k_a = (g.r_ab * a.cos(), k_b.1 * -g.r_ab / g.r_bb);
+                    let pt_b = (k_b.0 - s_b * u.0, k_b.1 - s_b * u.1);
+                    let pt_a = (k_a.0 + s_a * u.0, k_a.1 + s_a * u.1);
+                    let (fx, fy) = rig::force_on_b(f, pairs[k].0, pairs[k].1, a.sin(), a.cos());
+                    m_b += (pt_b.0 - d) * fy - pt_b.1 * fx;
+                    m_a += pt_a.0 * -fy - pt_a.1 * -fx;
+                    n += 1;
+                }
+                assert!(
+                    n >= 1,
+                    "model {contact_model}, dte {dte}, theta {theta}: a flank carries"
+                );
+                let scale = 1e-9 * (load.tq_a.abs() + load.tq_b.abs());
+                assert!(
+                    (m_b - load.tq_b).abs() <= scale,
+                    "B: {m_b} vs {}",
+                    load.tq_b
+                );
+                assert!(
+                    (-m_a - load.tq_a).abs() <= scale,
+                    "A: {} vs {}",
+                    -m_a,
+                    load.tq_a
+                );
+            }
+        }
     }
 }
