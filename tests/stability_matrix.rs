@@ -371,7 +371,24 @@ fn small_cases() -> Vec<Case> {
             ..base("communication step 0.01 s")
         },
         base("undamped, chi = 0").with(Var::chi, 0.0),
+        slider(1e11, 1, 1),
+        slider(1e11, 1, 2),
+        slider(1e11, 2, 2),
     ]
+}
+
+/// The paper's slider S at stiffness k (the paper's "very large" is 1e11 N/m) with 20 % of
+/// critical damping, under the compliant (1) or rigid (2) contact, with a solver.
+fn slider(k: f64, contact_model: i32, solver: i32) -> Case {
+    let m = 44.4;
+    base(&format!(
+        "slider {k:e} N/m, contact_model {contact_model}, solver {solver}"
+    ))
+    .with(Var::slider_stiffness, k)
+    .with(Var::slider_damping, 0.2 * 2.0 * (k * m).sqrt())
+    .with(Var::slider_mass, m)
+    .with_int(Var::contact_model, contact_model)
+    .with_int(Var::solver, solver)
 }
 
 fn full_cases() -> Vec<Case> {
@@ -462,6 +479,13 @@ fn full_cases() -> Vec<Case> {
         t_end: 1.0,
         ..base("communication step 1 s")
     });
+    for k in [1e9, 1e10, 1e11] {
+        for contact_model in [1, 2] {
+            for solver in [1, 2] {
+                v.push(slider(k, contact_model, solver));
+            }
+        }
+    }
     for solver in [1, 2] {
         for rtol in [1e-3, 1e-6, 1e-9] {
             v.push(
@@ -519,7 +543,7 @@ fn full_sweep() {
            same method at rel_tol/1000, so the error is the tolerance's and not a wrong answer; or\n\
          - stops with fmi2Error/fmi2Discard and a logged message that names the expected cause (cases\n\
            past a limit must stop; a case near one may do either).\n\n\
-         The small cases (the first ten rows) run in CI as `cargo test --release --test stability_matrix`.\n\n\
+         The small cases (the first thirteen rows) run in CI as `cargo test --release --test stability_matrix`.\n\n\
          | case | verdict | outcome |\n|---|---|---|\n",
     );
     for l in &lines {
