@@ -543,6 +543,8 @@ def _bad_parameters():
         "rA", "alpha_factor", "module", "pressure_angle", "xA", "xB", "addendum", "width", "E_A", "E_B",
         "nu_A", "nu_B", "J_A", "J_B", "backlash", "chi", "mu", "v_reg", "c_load", "w_A_start", "w_B_start",
         "dte_start", "rel_tol", "tau_A", "tau_B",
+        # rig-and-modes.md (issue 8 point 9): the rigid contact, the slider, the housing inputs.
+        "restitution", "slider_stiffness", "slider_damping", "slider_mass", "alpha_housing", "a_housing_x",
     ):
         for v in (NAN, INF, -INF):
             cases.append((f"{name}={v}", {name: v}, [name], v))
@@ -598,7 +600,7 @@ def test_contact_ratio_out_of_range_is_rejected(new_instance, reference_run, za,
     recover(inst, reference_run)
 
 
-@pytest.mark.parametrize("name", ["tau_A", "tau_B", "chi", "mu", "v_reg", "c_load"])
+@pytest.mark.parametrize("name", ["tau_A", "tau_B", "chi", "mu", "v_reg", "c_load", "alpha_housing", "a_housing_x"])
 @pytest.mark.parametrize("value", [NAN, INF, -INF])
 def test_non_finite_input_between_steps_is_rejected(new_instance, reference_run, name, value):
     inst = new_instance()
@@ -741,3 +743,82 @@ def test_guid_mismatch_is_refused_at_instantiation(unzip_dir, model_description)
     text = " | ".join(m for s, _, m in inst.messages if s >= 3)
     assert "fmi2Instantiate" in text and "GUID" in text and wrong in text and model_description.guid in text
     inst.slave.freeLibrary()
+
+
+# ---- bad input of the whole rig (issue 8 point 9, rig-and-modes.md) --------------------------
+# Non-finite values of restitution, slider_* and the housing inputs are in _bad_parameters and
+# test_non_finite_input_between_steps_is_rejected above.
+
+SLIDER = 1e9  # N/m, the paper's stiff spring
+
+
+def _bad_rig_parameters():
+    """(label, values set in this order, names the message must contain, value it must show)."""
+    cases = []
+    for v in (-0.1, 1.5):
+        cases.append((f"restitution={v}", {"restitution": v}, ["restitution"], v))
+    for v in (-0.1, 1.5):  # the check does not depend on the contact model
+        cases.append((f"rigid restitution={v}", {"contact_model": 2, "restitution": v}, ["restitution"], v))
+    for v in (0.0, -1.0):
+        cases.append((f"slider_mass={v} with a slider", {"slider_stiffness": SLIDER, "slider_mass": v},
+                      ["slider_mass"], v))
+    # The other order: the slider is switched on after the mass was set to 0.
+    cases.append(("slider_mass=0 then a slider", {"slider_mass": 0.0, "slider_stiffness": SLIDER},
+                  ["slider_mass"], 0.0))
+    cases.append(("slider_stiffness<0", {"slider_stiffness": -1.0}, ["slider_stiffness"], -1.0))
+    cases.append(("slider_damping<0", {"slider_damping": -1.0}, ["slider_damping"], -1.0))
+    cases.append(("slider_damping<0 with a slider", {"slider_stiffness": SLIDER, "slider_damping": -5.0},
+                  ["slider_damping"], -5.0))
+    for v in (3, 0, -1, 4):
+        cases.append((f"contact_model={v}", {"contact_model": v}, ["contact_model"], v))
+    return cases
+
+
+@pytest.mark.parametrize("label,values,names,value", _bad_rig_parameters(), ids=[c[0] for c in _bad_rig_parameters()])
+def test_bad_rig_parameter_is_rejected(new_instance, reference_run, label, values, names, value):
+    """fmi2Error at the fmi2Set call or at fmi2ExitInitializationMode, a message naming the
+    variable and its value, and the instance recovers after fmi2Reset."""
+    inst = new_instance()
+    text = " | ".join(rejected_in_initialization(inst, values))
+    for n in names:
+        assert n in text, (n, text)
+    assert rust_display(value) in text, (rust_display(value), text)
+    recover(inst, reference_run)
+
+
+@pytest.mark.parametrize(
+    "backlash,dte_start",
+    [(1e-4, 1e-6), (1e-4, -2e-4), (1e-4, -1.0001e-4), (0.0, 1e-7), (0.0, -1e-7)],
+)
+def test_rigid_dte_start_outside_the_backlash_is_rejected(new_instance, reference_run, backlash, dte_start):
+    """rig-and-modes.md §2: with rigid contact a dte_start outside [-backlash, 0] is an error:
+    fmi2Error at initialization, naming dte_start and its value."""
+    inst = new_instance()
+    text = " | ".join(rejected_in_initialization(inst, dict(contact_model=2, backlash=backlash, dte_start=dte_start)))
+    assert "dte_start" in text and rust_display(dte_start) in text, text
+    recover(inst, reference_run)
+
+
+@pytest.mark.parametrize(
+    "label,values",
+    [
+        ("restitution=0", dict(contact_model=2, restitution=0.0)),
+        ("restitution=1", dict(contact_model=2, restitution=1.0)),
+        ("slider_mass=0 without a slider", dict(slider_stiffness=0.0, slider_mass=0.0)),
+        ("rigid dte_start=-backlash", dict(contact_model=2, dte_start=-1e-4)),
+        ("rigid dte_start=0", dict(contact_model=2, dte_start=0.0)),
+        ("rigid backlash=0 dte_start=0", dict(contact_model=2, backlash=0.0, dte_start=0.0)),
+        ("slider with zero damping", dict(slider_stiffness=SLIDER, slider_damping=0.0, slider_mass=44.4)),
+    ],
+)
+def test_edge_values_of_the_rig_parameters_are_accepted(new_instance, label, values):
+    """The closed ends of the ranges are valid: the instance initializes and steps with fmi2OK and
+    logs no error (the rejections above are not an over-eager check)."""
+    inst = new_instance()
+    scene = {k: v for k, v in PAPER.items() if k not in values}
+    if values.get("contact_model") == 2 and "dte_start" not in values:
+        scene["dte_start"] = 0.0
+    inst.initialize(**scene, **values)
+    inst.run(0.002, 1e-4, ["dte"])
+    assert inst.errors() == []
+    assert math.isfinite(inst.get("dte"))
