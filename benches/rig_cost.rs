@@ -83,7 +83,7 @@ fn main() {
         }
         let ratios: Vec<f64> = johnson.iter().zip(&rigid).map(|(j, r)| j / r).collect();
         println!(
-            "| {label} | {:.3} ({sj}) | {:.4} ({sr}) | {:.0} (median of per-pair ratios) |",
+            "| {label} | {:.3} ({sj}) | {:.4} ({sr}) | {:.1} (median of per-pair ratios) |",
             1e3 * median(johnson),
             1e3 * median(rigid),
             median(ratios)

@@ -459,6 +459,17 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
             }
             writeln!(w, "            _ => false,\n        }}\n    }}").unwrap();
         }
+        // A direct scan of the Real fields: cheap enough for every communication step.
+        writeln!(w, "    /// The first Real field that is NaN or infinite, with its name.\n    pub fn first_non_finite(&self) -> Option<(&'static str, f64)> {{").unwrap();
+        for f in fields.iter().filter(|f| f.ty == "Real") {
+            writeln!(
+                w,
+                "        if !self.{n}.is_finite() {{ return Some(({n:?}, self.{n})); }}",
+                n = f.name
+            )
+            .unwrap();
+        }
+        writeln!(w, "        None\n    }}").unwrap();
         writeln!(w, "}}").unwrap();
     }
     s

@@ -51,9 +51,10 @@ pub struct Dopri5 {
     pub facold: f64,
 }
 
-fn axpy(y: &State, h: f64, terms: &[(f64, &State)]) -> State {
+/// y + h sum(a k) over the first n components (the rest stay as in y).
+fn axpy(y: &State, h: f64, terms: &[(f64, &State)], n: usize) -> State {
     let mut out = *y;
-    for (i, o) in out.iter_mut().enumerate() {
+    for (i, o) in out.iter_mut().enumerate().take(n) {
         let mut s = 0.0;
         for (a, k) in terms {
             s += a * k[i];
@@ -110,6 +111,8 @@ impl Dopri5 {
     ) -> Result<(), StepError> {
         let y = self.y;
         let k1 = self.k1;
+        // Only the components in use: the others have zero derivatives and stay as they are.
+        let n = sys.dim();
         let mut h = self.h.min(h_max);
         let mut last_err = None;
         loop {
@@ -118,10 +121,10 @@ impl Dopri5 {
             }
             let mut k = [[0.0; NY]; 6];
             let stages = (|| {
-                sys.rhs(&axpy(&y, h, &[(A21, &k1)]), &mut k[0])?;
-                sys.rhs(&axpy(&y, h, &[(A31, &k1), (A32, &k[0])]), &mut k[1])?;
+                sys.rhs(&axpy(&y, h, &[(A21, &k1)], n), &mut k[0])?;
+                sys.rhs(&axpy(&y, h, &[(A31, &k1), (A32, &k[0])], n), &mut k[1])?;
                 sys.rhs(
-                    &axpy(&y, h, &[(A41, &k1), (A42, &k[0]), (A43, &k[1])]),
+                    &axpy(&y, h, &[(A41, &k1), (A42, &k[0]), (A43, &k[1])], n),
                     &mut k[2],
                 )?;
                 sys.rhs(
@@ -129,6 +132,7 @@ impl Dopri5 {
                         &y,
                         h,
                         &[(A51, &k1), (A52, &k[0]), (A53, &k[1]), (A54, &k[2])],
+                        n,
                     ),
                     &mut k[3],
                 )?;
@@ -143,6 +147,7 @@ impl Dopri5 {
                             (A64, &k[2]),
                             (A65, &k[3]),
                         ],
+                        n,
                     ),
                     &mut k[4],
                 )
@@ -157,6 +162,7 @@ impl Dopri5 {
                     (A75, &k[3]),
                     (A76, &k[4]),
                 ],
+                n,
             );
             let result = stages.and_then(|_| sys.rhs(&y1, &mut k[5]));
             stats.rhs_evals += 6;
@@ -169,14 +175,15 @@ impl Dopri5 {
             }
             let (k3, k4, k5, k6, k7) = (&k[1], &k[2], &k[3], &k[4], &k[5]);
             let mut e = [0.0; NY];
-            for i in 0..NY {
+            for i in 0..n {
                 e[i] = h
                     * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             }
             let err = error_norm(&e, &y, &y1, tol);
             if err <= 1.0 {
                 let mut r = [[0.0; NY]; 5];
-                for i in 0..NY {
+                r[0] = y;
+                for i in 0..n {
                     let ydiff = y1[i] - y[i];
                     let bspl = h * k1[i] - ydiff;
                     r[0][i] = y[i];

@@ -334,6 +334,11 @@ impl Driver {
         }
     }
 
+    /// The time the method has integrated to (it may lie past the FMU's time).
+    pub fn method_time(&self) -> f64 {
+        self.method.t()
+    }
+
     /// The right-hand side changes from the current time on (new inputs or tunables).
     pub fn invalidate(&mut self) {
         if !self.needs_restart {

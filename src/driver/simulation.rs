@@ -94,6 +94,12 @@ impl Simulation {
         }
     }
 
+    /// Whether advancing to t_end integrates or handles an event (else it only moves the time).
+    pub fn needs_work(&self, t_end: f64) -> bool {
+        let d = &self.driver;
+        d.needs_restart || d.pending.is_some_and(|e| e.t <= t_end) || d.method_time() < t_end
+    }
+
     pub fn advance(
         &mut self,
         t_end: f64,

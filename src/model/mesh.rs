@@ -385,44 +385,48 @@ impl Mesh {
 
     /// The load of a locked flank per newton of total constraint force, with the equal split
     /// between its gated pairs; `None` when no pair is gated there.
-    fn unit_load(&self, f: Flank, y: &State) -> Option<(MeshLoad, usize)> {
+    fn unit_load(&self, f: Flank, y: &State) -> Option<MeshLoad> {
         let g = &self.geo;
         let slots = if f == Flank::Forward { 0..2 } else { 2..4 };
         let n = slots.clone().filter(|&k| self.gated(k)).count();
         if n == 0 {
             return None;
         }
-        let (w_a, w_b) = (y[W_A], self.w_b(y));
-        let (dir, share) = (f.dir(), 1.0 / n as f64);
-        let mut m = MeshLoad::default();
-        for k in slots.filter(|&k| self.gated(k)) {
-            m.tq_a -= dir * share * g.r_ab;
-            m.tq_b += dir * share * g.r_bb;
-            let mut ft = 0.0;
-            if self.loads.mu > 0.0 {
+        let dir = f.dir();
+        let share = 1.0 / n as f64;
+        // Without friction the normal forces of the pairs add up to N along the line of action.
+        let mut m = MeshLoad {
+            tq_a: -dir * g.r_ab,
+            tq_b: dir * g.r_bb,
+            f_bx: self.sin_a,
+            p_loss: 0.0,
+        };
+        if self.loads.mu > 0.0 {
+            let (w_a, w_b) = (y[W_A], self.w_b(y));
+            for k in slots.filter(|&k| self.gated(k)) {
                 let s_a = self.s_contact(k, y);
                 let s_b = g.l - s_a;
                 let (mu_eff, v_s) = self.friction(s_a, s_b, w_a, w_b);
-                ft = mu_eff * share;
+                let ft = mu_eff * share;
                 m.tq_a += ft * s_a;
                 m.tq_b -= ft * s_b;
                 m.p_loss += ft * v_s;
+                m.f_bx += rig::force_on_b(f, 0.0, ft, self.sin_a, self.cos_a).0;
             }
-            m.f_bx += rig::force_on_b(f, share, ft, self.sin_a, self.cos_a).0;
         }
-        Some((m, n))
+        Some(m)
     }
 
     /// Total constraint force that keeps flank f locked, with the current gates and speeds.
     fn constraint_force(&self, f: Flank, y: &State) -> Option<(f64, MeshLoad)> {
-        let (unit, _) = self.unit_load(f, y)?;
+        let unit = self.unit_load(f, y)?;
+        let g = &self.geo;
         // d^2 delta/dt^2 = a0 + a1 N: the free acceleration and the effect of a unit N.
-        let accel = |load: &MeshLoad, n: f64| {
-            let (dw_a, acc_b, acc_x) = self.accelerations(y, load, n);
-            f.dir() * (self.geo.r_ab * dw_a - self.geo.r_bb * acc_b) - self.sin_a * acc_x
-        };
-        let a0 = accel(&MeshLoad::default(), 1.0);
-        let a1 = accel(&unit, 0.0);
+        let (dw_a, acc_b, acc_x) = self.accelerations(y, &MeshLoad::default(), 1.0);
+        let a0 = f.dir() * (g.r_ab * dw_a - g.r_bb * acc_b) - self.sin_a * acc_x;
+        let inv_m = self.slider.map_or(0.0, |s| 1.0 / s.m);
+        let a1 = f.dir() * (g.r_ab * unit.tq_a / self.j_a - g.r_bb * unit.tq_b / self.j_b)
+            - self.sin_a * unit.f_bx * inv_m;
         let n = rigid::lock_force(a0, a1)?;
         Some((n, unit))
     }
@@ -528,7 +532,9 @@ impl Mesh {
 
     fn event_active(&self, e: EventFn) -> bool {
         match e {
-            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => self.present[k],
+            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => {
+                self.present[k] && !self.parked(slot_flank(k))
+            }
             // Rigid: an impact is watched for on a flank that is not locked (with two-sided
             // contact neither is once one is), the constraint force on the locked one.
             EventFn::Pen(f) if self.rigid() => {
@@ -769,8 +775,33 @@ impl Mesh {
         Some(self.release(f, y))
     }
 
+    /// The objects of flank f are not tracked: a one-sided rigid lock on the other flank with
+    /// no slider holds f exactly a backlash open, so its pair switches change nothing. They are
+    /// brought up to date when the lock ends (`resume_tracking`).
+    fn parked(&self, f: Flank) -> bool {
+        self.rigid()
+            && !self.two_sided()
+            && self.slider.is_none()
+            && self.locked() == Some(other(f))
+    }
+
+    /// Wraps the objects of flank f into their windows at the current angle and re-derives their
+    /// gates, as at t = 0.
+    fn resume_tracking(&mut self, f: Flank, y: &State) {
+        let present = self.present;
+        for k in (0..SLOTS).filter(|&k| slot_flank(k) == f && present[k]) {
+            self.sigma[k] =
+                contact::wrap_into_window(&self.geo, self.sigma[k], f.dir(), y[THETA_A]);
+            self.set_sign(EventFn::Gate(k), y);
+        }
+    }
+
     fn release(&mut self, f: Flank, y: &mut State) -> String {
+        let parked = self.parked(other(f));
         self.sign[EventFn::Pen(f).index()] = false;
+        if parked {
+            self.resume_tracking(other(f), y);
+        }
         if self.two_sided() && self.try_lock(other(f), y) {
             return format!(
                 "constraint force changes sign: the {:?} flank carries",
@@ -950,12 +981,19 @@ impl Mesh {
         let mut s = [0.0; SLOTS];
         let (mut f_flank, mut n_flank) = ([0.0; 2], [0; 2]);
         let (pairs, load) = self.pair_forces(y)?;
+        let parked = [self.parked(Flank::Forward), self.parked(Flank::Backward)];
         let (mut f_bx, mut f_by) = (0.0, 0.0);
         for k in 0..SLOTS {
             if !self.present[k] {
                 continue;
             }
-            s[k] = self.s_contact(k, y);
+            s[k] = if parked[slot_flank(k) as usize] {
+                let dir = slot_flank(k).dir();
+                contact::wrap_into_window(g, self.sigma[k], dir, y[THETA_A])
+                    + dir * g.r_ab * y[THETA_A]
+            } else {
+                self.s_contact(k, y)
+            };
             if self.carrying(k) {
                 let f = slot_flank(k);
                 f_flank[f as usize] += pairs[k].0;

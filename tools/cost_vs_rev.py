@@ -1,0 +1,75 @@
+#!/usr/bin/env python3
+"""Cost of the base scenes now against an earlier commit (issue 8: with every new feature off,
+the base scenes must cost what they cost before, within noise).
+
+    python3 tools/cost_vs_rev.py REV [--rounds 15] [--scenes damped,paper-m2,...]
+
+Builds REV's examples/run_scene in a git worktree (target/cost-vs-rev/, its own target dir), then
+runs both binaries on every scene through the C API, alternating old and new in each round so
+both meet the same machine state. Prints, per scene, the median wall time of each, the median of
+the per-round ratios new/old, and their spread (min..max of the ratios), as a Markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def build(rev: str) -> Path:
+    base = ROOT / "target" / "cost-vs-rev"
+    tree = base / "tree"
+    if tree.exists():
+        subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, check=True)
+    subprocess.run(["git", "worktree", "add", "--detach", str(tree), rev], cwd=ROOT, check=True,
+                   stdout=subprocess.DEVNULL)
+    env = {**__import__("os").environ, "CARGO_TARGET_DIR": str(base / "target")}
+    subprocess.run(["cargo", "build", "-q", "--release", "--example", "run_scene"], cwd=tree,
+                   env=env, check=True)
+    return base / "target" / "release" / "examples" / "run_scene"
+
+
+def wall(binary: Path, scene: Path) -> float:
+    out = subprocess.run([str(binary), str(scene), "--api", "c", "--reps", "3"], cwd=ROOT,
+                         capture_output=True, text=True, check=True).stdout
+    return json.loads(out.splitlines()[0])["wall_median_s"]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("rev")
+    ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--scenes", default="")
+    a = ap.parse_args()
+    subprocess.run(["cargo", "build", "-q", "--release", "--example", "run_scene"], cwd=ROOT,
+                   check=True)
+    new = ROOT / "target" / "release" / "examples" / "run_scene"
+    old = build(a.rev)
+    names = [s for s in a.scenes.split(",") if s] or sorted(
+        p.stem for p in (ROOT / "scenes").glob("*.toml")
+        if subprocess.run([str(old), str(p), "--reps", "1", "--stop-time", "1e-4"], cwd=ROOT,
+                          capture_output=True).returncode == 0)
+    print(f"new = working tree, old = {a.rev}; {a.rounds} rounds, each the median of 3 runs "
+          "through the C API, old and new alternating")
+    print("| scene | old [ms] | new [ms] | new/old (median) | new/old (min..max) |")
+    print("|---|---|---|---|---|")
+    for n in names:
+        scene = ROOT / "scenes" / f"{n}.toml"
+        o, w = [], []
+        for _ in range(a.rounds):
+            o.append(wall(old, scene))
+            w.append(wall(new, scene))
+        r = [x / y for x, y in zip(w, o)]
+        print(f"| `{n}` | {1e3 * statistics.median(o):.3f} | {1e3 * statistics.median(w):.3f} | "
+              f"{statistics.median(r):.3f} | {min(r):.2f}..{max(r):.2f} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
