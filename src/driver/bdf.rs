@@ -70,10 +70,10 @@ impl Shared {
     fn eval(&self, y: &[f64], dy: &mut [f64]) -> bool {
         self.rhs_evals.set(self.rhs_evals.get() + 1);
         let (mut ys, mut d) = ([0.0; NY], [0.0; NY]);
-        ys[..self.n].copy_from_slice(y);
+        copy_prefix(&mut ys, y);
         match (self.model)(&ys, &mut d) {
             Ok(()) => {
-                dy.copy_from_slice(&d[..self.n]);
+                copy_prefix(dy, &d[..self.n]);
                 true
             }
             Err(e) => {
@@ -96,7 +96,7 @@ impl Shared {
         let mut c = self.fd.borrow_mut();
         let n = self.n;
         if !(c.0 && &c.1[..n] == x) {
-            c.1[..n].copy_from_slice(x);
+            copy_prefix(&mut c.1, x);
             let mut fx = [0.0; NY];
             self.eval_poison(x, &mut fx[..n]);
             c.2 = fx;
@@ -169,6 +169,16 @@ impl std::fmt::Debug for Bdf {
             .field("h", &self.h)
             .field("y", &self.y)
             .finish()
+    }
+}
+
+/// dst[..src.len()] = src, with the two lengths the model has (six states, or eight with a
+/// slider) as fixed-size copies: a call to memcpy per evaluation was measurable on the stiff scene.
+fn copy_prefix(dst: &mut [f64], src: &[f64]) {
+    match src.len() {
+        6 => dst[..6].copy_from_slice(&src[..6]),
+        8 => dst[..8].copy_from_slice(&src[..8]),
+        n => dst[..n].copy_from_slice(src),
     }
 }
 
@@ -342,7 +352,7 @@ impl Bdf {
                 let t_new = st.t;
                 let y_new = st.y.batch_as_slice(0);
                 let mut y_arr = [0.0; NY];
-                y_arr[..shared.n].copy_from_slice(y_new);
+                copy_prefix(&mut y_arr, y_new);
                 let mut check = [0.0; NY];
                 // Newton's last iterate is never evaluated by diffsol: check it is in range.
                 let ok = y_arr.iter().all(|x| x.is_finite())
@@ -402,7 +412,7 @@ impl Bdf {
         match cell.with_dependent(|_, s| s.interpolate_inplace(t, &mut v)) {
             Ok(()) => {
                 let mut out = [0.0; NY];
-                out[..shared.n].copy_from_slice(v.batch_as_slice(0));
+                copy_prefix(&mut out, v.batch_as_slice(0));
                 out
             }
             // Only after a failed, rolled-back step: linear between the accepted points.

@@ -531,20 +531,11 @@ impl Mesh {
     }
 
     fn event_active(&self, e: EventFn) -> bool {
+        if self.rigid() {
+            return self.rigid_event_active(e);
+        }
         match e {
-            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => {
-                self.present[k] && !self.parked(slot_flank(k))
-            }
-            // Rigid: an impact is watched for on a flank that is not locked (with two-sided
-            // contact neither is once one is), the constraint force on the locked one.
-            EventFn::Pen(f) if self.rigid() => {
-                self.flank_present(f)
-                    && match self.locked() {
-                        None => true,
-                        Some(l) => l != f && !self.two_sided(),
-                    }
-            }
-            EventFn::Rel(f) if self.rigid() => self.locked() == Some(f),
+            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => self.present[k],
             EventFn::Pen(f) => self.flank_present(f),
             // A release matters only while the flank touches; its sign is set afresh at onset.
             EventFn::Rel(f) => {
@@ -553,28 +544,61 @@ impl Mesh {
         }
     }
 
+    /// Rigid contact: an impact is watched for on a flank that is not locked (with two-sided
+    /// contact neither is once one is), the constraint force on the locked one; a parked flank's
+    /// objects are not tracked.
+    fn rigid_event_active(&self, e: EventFn) -> bool {
+        match e {
+            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => {
+                self.present[k] && !self.parked(slot_flank(k))
+            }
+            EventFn::Pen(f) => {
+                self.flank_present(f)
+                    && match self.locked() {
+                        None => true,
+                        Some(l) => l != f && !self.two_sided(),
+                    }
+            }
+            EventFn::Rel(f) => self.locked() == Some(f),
+        }
+    }
+
     /// Value of one event function.
     pub fn event_value(&self, e: EventFn, y: &State) -> f64 {
+        self.value_given(e, y, |f| self.flank_delta(f, y))
+    }
+
+    /// An event function's value, with the flanks' penetrations and rates from `delta`.
+    fn value_given(&self, e: EventFn, y: &State, delta: impl Fn(Flank) -> (f64, f64)) -> f64 {
         match e {
             EventFn::Top(k) => self.geo.s_b - self.s_contact(k, y),
             EventFn::Bottom(k) => self.s_contact(k, y) - self.geo.s_window_low(),
             EventFn::Gate(k) => {
-                let (delta, _) = self.flank_delta(slot_flank(k), y);
-                self.s_contact(k, y) - delta.max(0.0) - self.geo.s_a
+                self.s_contact(k, y) - delta(slot_flank(k)).0.max(0.0) - self.geo.s_a
             }
-            EventFn::Pen(f) => self.flank_delta(f, y).0,
+            EventFn::Pen(f) => delta(f).0,
             EventFn::Rel(f) if self.rigid() => self.constraint_force(f, y).map_or(-1.0, |c| c.0),
-            EventFn::Rel(f) => 1.0 + self.loads.chi * self.flank_delta(f, y).1,
+            EventFn::Rel(f) => 1.0 + self.loads.chi * delta(f).1,
         }
     }
 
     /// All event functions, as signed distances to a crossing: positive while the recorded sign
-    /// holds, negative once the function has crossed. Inactive ones read +1.
+    /// holds, negative once the function has crossed. Inactive ones read +1. The flanks'
+    /// penetrations, which most of them use, are computed once.
     pub fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
+        let d = [
+            self.flank_delta(Flank::Forward, y),
+            self.flank_delta(Flank::Backward, y),
+        ];
         for (i, m) in out.iter_mut().enumerate() {
             let e = EventFn::from_index(i);
             *m = if self.event_active(e) {
-                self.margin(e, y)
+                let v = self.value_given(e, y, |f| d[f as usize]);
+                if self.sign[i] {
+                    v
+                } else {
+                    -v
+                }
             } else {
                 1.0
             };
