@@ -398,6 +398,15 @@ impl Bdf {
         })
     }
 
+    /// The state's rate at the solver's last point (diffsol keeps it with the state).
+    pub fn rate_at_end(&self) -> State {
+        let mut out = [0.0; NY];
+        if let Some(cell) = self.cell.as_ref() {
+            cell.with_dependent(|_, s| copy_prefix(&mut out, s.state().dy.batch_as_slice(0)));
+        }
+        out
+    }
+
     pub fn interpolate(&self, t: f64) -> State {
         if t >= self.t_int || self.t_int == self.t_int_prev {
             return self.y;

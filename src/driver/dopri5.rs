@@ -223,6 +223,23 @@ impl Dopri5 {
         }
     }
 
+    /// The rate of the continuous extension at t: f(t_prev) and f(t) at the step's ends.
+    pub fn derivative(&self, t: f64) -> State {
+        let h = self.t - self.t_prev;
+        if h == 0.0 {
+            return self.k1;
+        }
+        let s = (t - self.t_prev) / h;
+        let r = &self.rcont;
+        std::array::from_fn(|i| {
+            (r[1][i]
+                + (1.0 - 2.0 * s) * r[2][i]
+                + s * (2.0 - 3.0 * s) * r[3][i]
+                + 2.0 * s * (1.0 - s) * (1.0 - 2.0 * s) * r[4][i])
+                / h
+        })
+    }
+
     pub fn interpolate(&self, t: f64) -> State {
         let h = self.t - self.t_prev;
         if h == 0.0 {

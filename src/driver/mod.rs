@@ -18,6 +18,14 @@ pub trait System {
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange>;
     /// Signed distance of every event function to its crossing: >= 0 until it crosses.
     fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]);
+    /// The margins at y and their time derivatives with state rate dy (NaN where unknown).
+    fn event_margins_and_rates(
+        &self,
+        y: &State,
+        dy: &State,
+        margins: &mut [f64; N_EVENTS],
+        rates: &mut [f64; N_EVENTS],
+    );
     fn margin(&self, i: usize, y: &State) -> f64;
     /// Applies event i at y; the event may change y (an impact changes speeds).
     fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange>;
@@ -194,6 +202,29 @@ impl Method {
         }
     }
 
+    /// The state's rate at the end of the last step (at a restart: at the restart point).
+    fn rate_at_end(&self) -> State {
+        match self {
+            Method::Dopri5(m) => m.k1,
+            Method::Bdf(m) => m.rate_at_end(),
+        }
+    }
+
+    /// The rate of the dense output at time t inside the last step.
+    fn derivative(&self, t: f64) -> State {
+        match self {
+            Method::Dopri5(m) => m.derivative(t),
+            Method::Bdf(_) => {
+                // diffsol has no derivative of its interpolant: a central difference inside the step.
+                let (t0, t1) = (self.t_prev(), self.t());
+                let d = 1e-4 * (t1 - t0);
+                let (a, b) = ((t - d).max(t0), (t + d).min(t1));
+                let (ya, yb) = (self.interpolate(a), self.interpolate(b));
+                std::array::from_fn(|i| (yb[i] - ya[i]) / (b - a))
+            }
+        }
+    }
+
     fn interpolate(&self, t: f64) -> State {
         if t == self.t() {
             return *self.y();
@@ -231,6 +262,64 @@ impl Method {
             Method::Bdf(m) => m.step(sys, h_max, stats),
         }
     }
+}
+
+/// The event margins and their rates at the end of the last accepted step, which are those at
+/// the start of the next: kept so that each step evaluates them once. Recomputed when missing,
+/// so it never makes two drivers unequal; an FMU state saves it, because a recomputation from
+/// the dense output rounds differently.
+#[derive(Clone, Debug, Default)]
+pub struct MarginCache(Option<(f64, [f64; N_EVENTS], [f64; N_EVENTS])>);
+
+impl MarginCache {
+    pub fn new(v: Option<(f64, [f64; N_EVENTS], [f64; N_EVENTS])>) -> MarginCache {
+        MarginCache(v)
+    }
+
+    pub fn get(&self) -> Option<(f64, [f64; N_EVENTS], [f64; N_EVENTS])> {
+        self.0
+    }
+}
+
+impl PartialEq for MarginCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// The cubic Hermite interpolant on [0, 1] through values m0, m1 with slopes d0, d1 (per unit
+/// s): its interior minimum (s, value), if any.
+fn hermite_minimum(m0: f64, d0: f64, m1: f64, d1: f64) -> Option<(f64, f64)> {
+    // H(s) = m0 + d0 s + c2 s^2 + c3 s^3.
+    let c2 = 3.0 * (m1 - m0) - 2.0 * d0 - d1;
+    let c3 = 2.0 * (m0 - m1) + d0 + d1;
+    let h = |s: f64| m0 + s * (d0 + s * (c2 + s * c3));
+    // H'(s) = d0 + 2 c2 s + 3 c3 s^2 = 0 with H''(s) = 2 c2 + 6 c3 s > 0.
+    let (a, b, c) = (3.0 * c3, 2.0 * c2, d0);
+    let mut best: Option<(f64, f64)> = None;
+    let mut consider = |s: f64| {
+        if s > 0.0 && s < 1.0 && b + 2.0 * a * s > 0.0 {
+            let v = h(s);
+            if best.map_or(true, |(_, w)| v < w) {
+                best = Some((s, v));
+            }
+        }
+    };
+    if a.abs() <= 1e-12 * (b.abs() + c.abs()) {
+        if b != 0.0 {
+            consider(-c / b);
+        }
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if disc >= 0.0 {
+            let q = -0.5 * (b + b.signum() * disc.sqrt());
+            if q != 0.0 {
+                consider(q / a);
+                consider(c / q);
+            }
+        }
+    }
+    best
 }
 
 /// How many accepted steps a computed step limit serves (see `Driver::step_limit`).
@@ -279,6 +368,9 @@ pub struct Driver {
     /// holds (stiffness, contact speed) change slowly, so it is renewed at restarts and every
     /// `STEP_LIMIT_AGE` accepted steps. NaN: not computed yet.
     pub(crate) step_limit: f64,
+    pub(crate) start: MarginCache,
+    /// A cap on the internal step (tests force small steps with it); infinite by default.
+    pub max_step: f64,
 }
 
 impl Clone for Driver {
@@ -305,6 +397,8 @@ impl Clone for Driver {
             } else {
                 self.step_limit
             },
+            start: MarginCache::default(),
+            max_step: self.max_step,
         }
     }
 }
@@ -322,6 +416,8 @@ impl Driver {
             t_stop: f64::INFINITY,
             y_start: y0,
             step_limit: f64::NAN,
+            start: MarginCache::default(),
+            max_step: f64::INFINITY,
         }
     }
 
@@ -398,15 +494,23 @@ impl Driver {
                 let explicit = matches!(self.method, Method::Dopri5(_));
                 self.step_limit = sys.max_step(self.method.y(), explicit);
             }
-            let h_max = self.step_limit.min(self.t_stop - self.method.t());
+            let h_max = self
+                .step_limit
+                .min(self.max_step)
+                .min(self.t_stop - self.method.t());
             let h_max = if h_max > 0.0 { h_max } else { f64::INFINITY };
             self.method
                 .step(sys, h_max, &self.tol, &mut self.stats)
                 .map_err(|e| self.step_error(e))?;
-            let t = self.method.t();
-            sys.check_state(self.method.y())
-                .map_err(|err| DriverError::Law { t, err })?;
             self.pending = self.locate(sys);
+            // A step may overshoot past an event into states the modes before it never reach:
+            // the limits hold up to the first event.
+            let (t, y) = match self.pending {
+                Some(e) => (e.t, self.method.interpolate(e.t)),
+                None => (self.method.t(), *self.method.y()),
+            };
+            sys.check_state(&y)
+                .map_err(|err| DriverError::Law { t, err })?;
         }
     }
 
@@ -424,6 +528,7 @@ impl Driver {
         self.pending = None;
         self.y_start = *y;
         self.step_limit = f64::NAN;
+        self.start = MarginCache::default();
         Ok(())
     }
 
@@ -438,45 +543,120 @@ impl Driver {
         }
     }
 
-    /// The earliest event in the last step, from its end point and midpoint (so a function that
-    /// crosses and comes back within a step is caught when the midpoint lies between).
-    fn locate<S: System>(&self, sys: &S) -> Option<PendingEvent> {
+    /// The earliest event in the last step. Each margin is known at the step's ends, with its
+    /// rate, and at the midpoint. A crossing shows at the end or the midpoint, or, for a margin
+    /// that dips below zero and comes back inside the step (a graze), at the interior minimum
+    /// of the cubic through its ends' values and rates: where that cubic's minimum comes near
+    /// zero (within the cubic's own error at the midpoint), the margin is evaluated there on the
+    /// dense output, after one Newton step on its rate towards the true minimum.
+    fn locate<S: System>(&mut self, sys: &S) -> Option<PendingEvent> {
         let (t0, t1) = (self.method.t_prev(), self.method.t());
-        let tm = 0.5 * (t0 + t1);
+        let (h, tm) = (t1 - t0, 0.5 * (t0 + t1));
         let mut end = [0.0; N_EVENTS];
-        let mut mid = [0.0; N_EVENTS];
-        sys.event_margins(self.method.y(), &mut end);
-        if end.iter().all(|&m| m >= 0.0) {
-            sys.event_margins(&self.method.interpolate(tm), &mut mid);
-            if mid.iter().all(|&m| m >= 0.0) {
-                return None;
+        let mut end_rate = [0.0; N_EVENTS];
+        sys.event_margins_and_rates(
+            self.method.y(),
+            &self.method.rate_at_end(),
+            &mut end,
+            &mut end_rate,
+        );
+        let (start, start_rate) = match self.start.0.take() {
+            Some((t, m, r)) if t == t0 => (m, r),
+            _ => {
+                let (mut m, mut r) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+                let y0 = self.method.interpolate(t0);
+                sys.event_margins_and_rates(&y0, &self.method.derivative(t0), &mut m, &mut r);
+                (m, r)
             }
-        } else {
-            sys.event_margins(&self.method.interpolate(tm), &mut mid);
+        };
+        // At t0 a margin is >= 0 except when two events coincide and the other one was just
+        // handled: it has then crossed at t0 itself, and the root search returns about t0.
+        let m0: [f64; N_EVENTS] = std::array::from_fn(|i| start[i].max(0.0));
+        let slopes: [(f64, f64); N_EVENTS] =
+            std::array::from_fn(|i| (h * start_rate[i], h * end_rate[i]));
+        // The cubic through the ends is the chord plus s(1-s)[(d0 - D)(1-s) - (d1 - D)s],
+        // D = m1 - m0: it stays above min(m0, m1) - max(|d0 - D|, |d1 - D|)/4. A margin whose
+        // bound stays positive and whose end is positive cannot have crossed; most end here.
+        let may_dip: [bool; N_EVENTS] = std::array::from_fn(|i| {
+            let (d0, d1) = slopes[i];
+            let chord = end[i] - m0[i];
+            let dip = 0.25 * (d0 - chord).abs().max((d1 - chord).abs());
+            !(m0[i].min(end[i]) > dip) // NaN rates: unknown, so checked
+        });
+        if !may_dip.iter().any(|&d| d) {
+            self.start = MarginCache(Some((t1, end, end_rate)));
+            return None;
         }
+        let mut mid = [0.0; N_EVENTS];
+        sys.event_margins(&self.method.interpolate(tm), &mut mid);
         let mut best: Option<PendingEvent> = None;
-        for i in 0..N_EVENTS {
-            let (b, fb) = if mid[i] < 0.0 {
-                (tm, mid[i])
-            } else if end[i] < 0.0 {
-                (t1, end[i])
+        for i in (0..N_EVENTS).filter(|&i| may_dip[i] || mid[i] < 0.0) {
+            let (d0, d1) = slopes[i];
+            let mut samples = [(tm, mid[i]), (t1, end[i]), (f64::INFINITY, 0.0)];
+            let cubic = if d0.is_finite() && d1.is_finite() {
+                hermite_minimum(m0[i], d0, end[i], d1)
             } else {
-                continue;
+                None
             };
-            let a = if b == tm { t0 } else { tm };
-            // At t0 a margin is >= 0 except when two events coincide and the other one was just
-            // handled: it has then crossed at t0 itself, and the root search returns about t0.
-            let fa = if b == tm {
-                sys.margin(i, &self.method.interpolate(t0)).max(0.0)
-            } else {
-                mid[i]
-            };
-            let t = self.root(sys, i, a, fa, b, fb);
-            if best.map_or(true, |e| t < e.t) {
-                best = Some(PendingEvent { t, index: i });
+            if let Some((s, low)) = cubic {
+                // Sample the margin near the cubic's minimum where it comes within the cubic's
+                // own error at the midpoint (times 4) of zero.
+                let c2 = 3.0 * (end[i] - m0[i]) - 2.0 * d0 - d1;
+                let c3 = 2.0 * (m0[i] - end[i]) + d0 + d1;
+                let at_mid = m0[i] + 0.5 * (d0 + 0.5 * (c2 + 0.5 * c3));
+                let slack = 4.0 * (at_mid - mid[i]).abs() + 1e-3 * (m0[i].abs() + end[i].abs());
+                if low <= slack {
+                    samples[2] = self.graze_sample(sys, i, t0, h, s, 2.0 * c2 + 6.0 * c3 * s);
+                }
             }
+            if samples[2].0 < t1 {
+                samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+            }
+            let (mut a, mut fa) = (t0, m0[i]);
+            for &(t, m) in samples.iter().filter(|p| p.0.is_finite()) {
+                if m < 0.0 {
+                    let t = self.root(sys, i, a, fa, t, m);
+                    if best.map_or(true, |e| t < e.t) {
+                        best = Some(PendingEvent { t, index: i });
+                    }
+                    break;
+                }
+                (a, fa) = (t, m);
+            }
+        }
+        if best.is_none() {
+            self.start = MarginCache(Some((t1, end, end_rate)));
         }
         best
+    }
+
+    /// The margin of event i near the cubic's interior minimum at s (curvature `curv` per s^2):
+    /// one Newton step on the margin's true rate there, and the lower of the two values.
+    fn graze_sample<S: System>(
+        &self,
+        sys: &S,
+        i: usize,
+        t0: f64,
+        h: f64,
+        s: f64,
+        curv: f64,
+    ) -> (f64, f64) {
+        let t = t0 + s * h;
+        let y = self.method.interpolate(t);
+        let (mut margins, mut rates) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+        sys.event_margins_and_rates(&y, &self.method.derivative(t), &mut margins, &mut rates);
+        let m = margins[i];
+        let s2 = s - h * rates[i] / curv;
+        if !(s2 > 0.0 && s2 < 1.0) || s2 == s {
+            return (t, m);
+        }
+        let t2 = t0 + s2 * h;
+        let m2 = sys.margin(i, &self.method.interpolate(t2));
+        if m2 < m {
+            (t2, m2)
+        } else {
+            (t, m)
+        }
     }
 
     /// Illinois regula falsi on the dense output: returns a time at which the function has

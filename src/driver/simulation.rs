@@ -14,6 +14,15 @@ impl System for Mesh {
     fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
         Mesh::event_margins(self, y, out)
     }
+    fn event_margins_and_rates(
+        &self,
+        y: &State,
+        dy: &State,
+        margins: &mut [f64; N_EVENTS],
+        rates: &mut [f64; N_EVENTS],
+    ) {
+        Mesh::event_margins_and_rates(self, y, dy, margins, rates)
+    }
     fn margin(&self, i: usize, y: &State) -> f64 {
         Mesh::margin(self, crate::model::contact::EventFn::from_index(i), y)
     }

@@ -11,7 +11,7 @@ use super::instance::Snapshot;
 use crate::driver::bdf::Bdf;
 use crate::driver::dopri5::Dopri5;
 use crate::driver::simulation::Simulation;
-use crate::driver::{Method, PendingEvent, Stats, WorkCap};
+use crate::driver::{MarginCache, Method, PendingEvent, Stats, WorkCap};
 use crate::model::contact::N_EVENTS;
 use crate::model::mesh::N_CONTROLLED;
 use crate::model::{Loads, NY};
@@ -105,6 +105,13 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
     w.f(d.t_stop);
     w.fs(&d.y_start);
     w.f(d.step_limit);
+    // The event margins at the step's start: a recomputation would round differently.
+    let start = d.start.get();
+    w.b(start.is_some());
+    let (t, m, r) = start.unwrap_or((0.0, [0.0; N_EVENTS], [0.0; N_EVENTS]));
+    w.f(t);
+    w.fs(&m);
+    w.fs(&r);
     match &d.method {
         Method::Dopri5(m) => {
             w.u(1);
@@ -222,6 +229,8 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     d.t_stop = r.f()?;
     d.y_start = r.fs::<NY>()?;
     d.step_limit = r.f()?;
+    let (has_start, t, m, rates) = (r.b()?, r.f()?, r.fs()?, r.fs()?);
+    d.start = MarginCache::new(has_start.then_some((t, m, rates)));
     d.method = match r.u()? {
         1 => {
             let mut m = Dopri5::new();

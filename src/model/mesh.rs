@@ -530,6 +530,7 @@ impl Mesh {
         self.check_state(y)
     }
 
+    #[inline]
     fn event_active(&self, e: EventFn) -> bool {
         if self.rigid() {
             return self.rigid_event_active(e);
@@ -601,6 +602,49 @@ impl Mesh {
                 }
             } else {
                 1.0
+            };
+        }
+    }
+
+    /// All event margins (see `event_margins`) and their time derivatives at state y with state
+    /// rate dy, signed as the margins: 0 for inactive ones, NaN where the model gives none (the
+    /// rigid constraint force). The driver fits a cubic through each margin's values and rates
+    /// at a step's ends to find interior minima that may cross zero within one step (a graze).
+    pub fn event_margins_and_rates(
+        &self,
+        y: &State,
+        dy: &State,
+        margins: &mut [f64; N_EVENTS],
+        rates: &mut [f64; N_EVENTS],
+    ) {
+        let d = [
+            self.flank_delta(Flank::Forward, y),
+            self.flank_delta(Flank::Backward, y),
+        ];
+        let travel = self.geo.r_ab * dy[THETA_A];
+        for i in 0..N_EVENTS {
+            let e = EventFn::from_index(i);
+            if !self.event_active(e) {
+                (margins[i], rates[i]) = (1.0, 0.0);
+                continue;
+            }
+            let value = self.value_given(e, y, |f| d[f as usize]);
+            let rate = match e {
+                EventFn::Top(k) => -slot_flank(k).dir() * travel,
+                EventFn::Bottom(k) => slot_flank(k).dir() * travel,
+                EventFn::Gate(k) => {
+                    let f = slot_flank(k);
+                    let (delta, rate) = d[f as usize];
+                    f.dir() * travel - if delta > 0.0 { rate } else { 0.0 }
+                }
+                EventFn::Pen(f) => d[f as usize].1,
+                EventFn::Rel(_) if self.rigid() => f64::NAN,
+                EventFn::Rel(f) => self.loads.chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S]),
+            };
+            (margins[i], rates[i]) = if self.sign[i] {
+                (value, rate)
+            } else {
+                (-value, -rate)
             };
         }
     }
