@@ -6,6 +6,8 @@ cd "$(dirname "$0")/.."
 py=$(bash tools/venv.sh)
 echo "== cargo test (release: the integration tests simulate real scenes)"
 cargo test --workspace --release
+echo "== the diffsol peer benchmark compiles (docs/integrators.md; its own workspace)"
+cargo check -q --all-targets --manifest-path benches/diffsol-peer/Cargo.toml --target-dir target/diffsol-peer
 echo "== package the FMU"
 cargo run -q -p fmu-packaging --release
 echo "== memcheck of the C API (valgrind)"

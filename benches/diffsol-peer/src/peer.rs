@@ -287,7 +287,7 @@ pub fn run_diffsol(
             model
                 .mesh
                 .borrow_mut()
-                .handle_event(e.index, &full(&buf))
+                .handle_event(e.index, &mut full(&buf))
                 .map_err(|err| format!("event at t = {}: {err}", e.t))?;
             events += 1;
             let h = opts.h_hint.then(|| m.h());

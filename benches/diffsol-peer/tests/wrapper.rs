@@ -143,6 +143,7 @@ fn event_loop_matches_our_driver() {
         inputs: Inputs {
             tau_A: 100.0,
             tau_B: 0.0,
+            ..Inputs::default()
         },
         t_end: 0.02,
         dt: 1e-4,
