@@ -194,7 +194,16 @@ pub unsafe fn exit_initialization_mode<S: Slave>(c: Component) -> Status {
     with::<S>(c, "fmi2ExitInitializationMode", allowed::INIT, |i| {
         i.slave.exit_initialization()?;
         i.state = FmiState::StepComplete;
-        Ok(Status::Ok)
+        let warnings = i.slave.init_warnings();
+        for w in &warnings {
+            i.log
+                .log(Status::Warning, crate::logging::LOG_STATUS_WARNING, w);
+        }
+        Ok(if warnings.is_empty() {
+            Status::Ok
+        } else {
+            Status::Warning
+        })
     })
 }
 

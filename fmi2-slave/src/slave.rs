@@ -43,6 +43,12 @@ pub trait Slave: Clone + 'static {
     /// fmi2ExitInitializationMode: afterwards the instance steps.
     fn exit_initialization(&mut self) -> Result<(), Failure>;
 
+    /// What is valid but unusual in the model just initialized: fmi2ExitInitializationMode logs
+    /// each under logStatusWarning and returns fmi2Warning.
+    fn init_warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// The value of one variable (fmi2Get*, from initialization mode on).
     fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure>;
     fn get_integer(&mut self, vr: ValueReference) -> Result<i32, Failure> {

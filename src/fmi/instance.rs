@@ -93,6 +93,13 @@ impl Slave for SpurGearMesh {
         Ok(())
     }
 
+    fn init_warnings(&self) -> Vec<String> {
+        self.snap
+            .sim
+            .as_ref()
+            .map_or_else(Vec::new, |s| s.mesh.geo.warnings.clone())
+    }
+
     fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure> {
         let v = lookup(vr, VarType::Real)?;
         self.value(

@@ -35,6 +35,8 @@ pub struct Geometry {
     pub r_tip_b: f64,
     /// Effective modulus E*.
     pub e_star: f64,
+    /// What is valid but unusual (thin tooth tips), for the log.
+    pub warnings: Vec<String>,
 }
 
 /// Involute function tan(a) - a.
@@ -199,17 +201,89 @@ impl Geometry {
             }
             m => m as usize,
         };
-        if g.t_a <= 0.0 || g.t_b <= 0.0 {
-            return Err(err(
-                "backlash",
-                p.backlash,
-                &format!(
-                    "leaves no tooth: base thickness angles tA = {}, tB = {}",
-                    g.t_a, g.t_b
-                ),
-            ));
-        }
+        g.check_teeth(p)?;
         Ok(g)
+    }
+
+    /// Teeth that cannot exist are rejected with their numbers: no thickness on the operating
+    /// pitch circle (too much backlash), pointed tips, an active profile below where a rack
+    /// cutter generates the involute (undercut). A tip thinner than 0.2 module is a warning.
+    /// An involute tooth whose angular thickness on the base circle is t has the angular
+    /// thickness t - 2 inv(alpha_r) on the circle of radius r, cos(alpha_r) = r_b/r.
+    fn check_teeth(&mut self, p: &Params) -> Result<(), ModelError> {
+        let thickness = |t: f64, r_b: f64, r: f64| r * (t - 2.0 * inv((r_b / r).min(1.0).acos()));
+        let (shape, module) = match p.geometry {
+            1 => (
+                format!(
+                    "alpha_factor = {}, zA = {}, zB = {}, backlash = {}",
+                    p.alpha_factor, p.zA, p.zB, p.backlash
+                ),
+                // The operating module: the base pitch over pi cos(alpha_w).
+                self.p_b / (PI * self.alpha_w.cos()),
+            ),
+            _ => (
+                format!(
+                    "module = {}, zA = {}, zB = {}, xA = {}, xB = {}, addendum = {}, backlash = {}",
+                    p.module, p.zA, p.zB, p.xA, p.xB, p.addendum, p.backlash
+                ),
+                p.module,
+            ),
+        };
+        for (wheel, t, r_b, r_tip, z, x) in [
+            ("A", self.t_a, self.r_ab, self.r_tip_a, p.zA, p.xA),
+            ("B", self.t_b, self.r_bb, self.r_tip_b, p.zB, p.xB),
+        ] {
+            let r_w = r_b / self.alpha_w.cos();
+            let pitch = thickness(t, r_b, r_w);
+            if !(pitch > 0.0) {
+                return Err(err(
+                    "backlash",
+                    p.backlash,
+                    &format!(
+                        "leaves wheel {wheel}'s tooth no thickness on its operating pitch circle (radius {r_w} m): {pitch} m"
+                    ),
+                ));
+            }
+            let tip = thickness(t, r_b, r_tip);
+            if !(tip > 0.0) {
+                return Err(ModelError::new(format!(
+                    "pointed teeth: wheel {wheel}'s tooth thickness on its tip circle (radius {r_tip} m) is {tip} m ({shape})"
+                )));
+            }
+            if tip < 0.2 * module {
+                self.warnings.push(format!(
+                    "wheel {wheel}'s tooth tip is {tip} m thick, below 0.2 module ({} m) ({shape})",
+                    0.2 * module
+                ));
+            }
+            if p.geometry == 2 {
+                // ISO 53 profile A: the cutter's straight flank ends (1.25 - 0.38 (1 - sin a0))
+                // modules above the datum line, where the generated involute begins: at the roll
+                // distance r sin(a0) - (h - x) m / sin(a0) from the base circle's tangent point.
+                let a0 = p.pressure_angle;
+                let h = 1.25 - 0.38 * (1.0 - a0.sin());
+                let start = p.module * z as f64 / 2.0 * a0.sin() - (h - x) * p.module / a0.sin();
+                let lowest = if wheel == "A" {
+                    self.s_a
+                } else {
+                    self.l - self.s_b
+                };
+                if start < 0.0 {
+                    // The cutter's corner passes the base circle's tangent point: the flank is
+                    // undercut near the base circle, where this model assumes an involute.
+                    self.warnings.push(format!(
+                        "wheel {wheel} is undercut by a rack cutter (z = {z}, x = {x}): the model assumes an involute down to the lowest contact, {lowest} m from its base circle's tangent point"
+                    ));
+                } else if start > lowest + 1e-12 * self.l {
+                    return Err(ModelError::new(format!(
+                        "active profile below the involute: the contact reaches wheel {wheel}'s flank {lowest} m from its base \
+                         circle's tangent point, below where a rack cutter's straight flank generates the involute ({start} m; \
+                         lower down is the root fillet) ({shape})"
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     fn paper(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
@@ -349,6 +423,7 @@ impl Geometry {
             r_tip_a: 0.0,
             r_tip_b: 0.0,
             e_star: 0.0,
+            warnings: Vec::new(),
         }
     }
 
@@ -533,6 +608,88 @@ mod tests {
         for (p, word) in cases {
             let e = Geometry::new(&p).unwrap_err();
             assert!(e.message.contains(word), "{} should name {word}", e.message);
+        }
+    }
+
+    fn standard(za: i32, zb: i32, xa: f64, xb: f64) -> Params {
+        Params {
+            geometry: 2,
+            module: 0.004,
+            zA: za,
+            zB: zb,
+            xA: xa,
+            xB: xb,
+            pressure_angle: 20f64.to_radians(),
+            ..Params::default()
+        }
+    }
+
+    /// Issue 9, point 5: teeth that cannot exist are rejected with their numbers, in both
+    /// front ends, and each case is one that passed every earlier check. A contact below the
+    /// generated involute: 20 teeth without shift are generated from 1.99 mm above the base
+    /// circle's tangent point (module 4 mm), and a 1.1-module addendum on the 80-tooth mate
+    /// brings the contact down to 1.91 mm.
+    #[test]
+    fn impossible_teeth_are_rejected() {
+        let cases = [
+            (
+                Params {
+                    alpha_factor: 3.5,
+                    ..Params::default()
+                },
+                "pointed teeth",
+                "alpha_factor = 3.5",
+            ),
+            (
+                Params {
+                    zA: 40,
+                    zB: 60,
+                    ..Params::default()
+                },
+                "pointed teeth",
+                "zA = 40",
+            ),
+            (standard(10, 30, 0.8, 0.0), "pointed teeth", "xA = 0.8"),
+            (
+                Params {
+                    backlash: 0.06,
+                    ..Params::default()
+                },
+                "backlash = 0.06",
+                "operating pitch circle",
+            ),
+            (
+                Params {
+                    addendum: 1.1,
+                    ..standard(20, 80, 0.0, 0.0)
+                },
+                "active profile below the involute",
+                "addendum = 1.1",
+            ),
+        ];
+        for (p, what, names) in cases {
+            let e = Geometry::new(&p).unwrap_err().message;
+            assert!(e.contains(what) && e.contains(names), "{what}: {e}");
+        }
+    }
+
+    /// A tip thinner than 0.2 module is accepted with a warning naming its thickness; standard
+    /// unshifted pairs from 18 teeth on and the paper rig have none.
+    #[test]
+    fn thin_tips_are_a_warning() {
+        let g = Geometry::new(&standard(12, 40, 0.8, 0.0)).unwrap();
+        assert!(
+            g.warnings.iter().any(|w| w.contains("wheel A's tooth tip")),
+            "{:?}",
+            g.warnings
+        );
+        for p in [
+            Params::default(),
+            standard(18, 40, 0.0, 0.0),
+            standard(30, 30, 0.0, 0.0),
+        ] {
+            let g = Geometry::new(&p).unwrap();
+            assert!(g.warnings.is_empty(), "{:?}", g.warnings);
         }
     }
 }

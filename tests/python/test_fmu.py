@@ -822,3 +822,41 @@ def test_edge_values_of_the_rig_parameters_are_accepted(new_instance, label, val
     inst.run(0.002, 1e-4, ["dte"])
     assert inst.errors() == []
     assert math.isfinite(inst.get("dte"))
+
+
+# ---- teeth that cannot exist (issue 9, point 5) ---------------------------------------------------
+
+STANDARD = {"geometry": 2, "module": 0.004, "pressure_angle": math.radians(20.0)}
+
+
+@pytest.mark.parametrize(
+    "values,words",
+    [
+        ({"alpha_factor": 3.5}, ["pointed teeth", "alpha_factor = 3.5"]),
+        ({"zA": 40, "zB": 60}, ["pointed teeth", "zA = 40"]),
+        ({**STANDARD, "zA": 10, "zB": 30, "xA": 0.8}, ["pointed teeth", "xA = 0.8"]),
+        ({"backlash": 0.06}, ["backlash = 0.06", "operating pitch circle"]),
+        ({**STANDARD, "zA": 20, "zB": 80, "addendum": 1.1},
+         ["active profile below the involute", "addendum = 1.1"]),
+    ],
+    ids=["paper alpha_factor 3.5", "paper 40/60 teeth", "standard z 10 x 0.8", "backlash", "below the involute"],
+)
+def test_teeth_that_cannot_exist_are_rejected(new_instance, reference_run, values, words):
+    inst = new_instance()
+    text = " | ".join(rejected_in_initialization(inst, values))
+    for w in words:
+        assert w in text, (w, text)
+    recover(inst, reference_run)
+
+
+def test_a_thin_tooth_tip_is_a_logged_warning(new_instance):
+    """12 teeth shifted by 0.8 module: a tip 9 um thick on a 4 mm module, below 0.2 module."""
+    inst = new_instance()
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.set(**STANDARD, zA=12, zB=40, xA=0.8)
+    n = len(inst.messages)
+    inst.slave.exitInitializationMode()  # fmi2Warning passes; an error would raise
+    warnings = [m for s, c, m in inst.messages[n:] if s == 1 and c == "logStatusWarning"]
+    assert any("wheel A's tooth tip" in m and "0.2 module" in m for m in warnings), inst.messages[n:]
+    inst.slave.doStep(0.0, 1e-4)
