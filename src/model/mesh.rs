@@ -847,10 +847,12 @@ impl Mesh {
     /// no slider holds f exactly a backlash open, so its pair switches change nothing. They are
     /// brought up to date when the lock ends (`resume_tracking`).
     fn parked(&self, f: Flank) -> bool {
-        self.rigid()
-            && !self.two_sided()
-            && self.slider.is_none()
-            && self.locked() == Some(other(f))
+        match self.law {
+            ContactModel::Rigid {
+                two_sided: false, ..
+            } => self.slider.is_none() && self.sign[EventFn::Pen(other(f)).index()],
+            _ => false,
+        }
     }
 
     /// Wraps the objects of flank f into their windows at the current angle and re-derives their
