@@ -28,6 +28,9 @@ pub struct ModelInfo {
     pub start_time: f64,
     pub stop_time: f64,
     pub step_size: f64,
+    /// The DefaultExperiment's tolerance, if any.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
     pub log_categories: Vec<[String; 2]>,
 }
 
@@ -217,14 +220,15 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
     }
     put(Event::End(BytesEnd::new("LogCategories")));
 
-    put(Event::Empty(elem(
-        "DefaultExperiment",
-        &[
-            ("startTime", format_real(t.model.start_time)),
-            ("stopTime", format_real(t.model.stop_time)),
-            ("stepSize", format_real(t.model.step_size)),
-        ],
-    )));
+    let mut experiment = vec![
+        ("startTime", format_real(t.model.start_time)),
+        ("stopTime", format_real(t.model.stop_time)),
+    ];
+    if let Some(tol) = t.model.tolerance {
+        experiment.push(("tolerance", format_real(tol)));
+    }
+    experiment.push(("stepSize", format_real(t.model.step_size)));
+    put(Event::Empty(elem("DefaultExperiment", &experiment)));
 
     put(Event::Start(BytesStart::new("ModelVariables")));
     for (i, v) in t.vars.iter().enumerate() {

@@ -270,8 +270,11 @@ impl From<Snapshot> for SpurGearMesh {
 }
 
 impl SpurGearMesh {
+    /// The master's tolerance tightens rel_tol, never loosens it: masters that pass a default
+    /// of their own (PyFMI and OMSimulator pass 1e-4) get the FMU's own accuracy.
     fn tolerance(&self) -> f64 {
-        self.snap.tolerance.unwrap_or(self.snap.params.rel_tol)
+        let rel_tol = self.snap.params.rel_tol;
+        self.snap.tolerance.map_or(rel_tol, |t| t.min(rel_tol))
     }
 
     fn loads(&self) -> Loads {

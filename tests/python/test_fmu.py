@@ -860,3 +860,24 @@ def test_a_thin_tooth_tip_is_a_logged_warning(new_instance):
     warnings = [m for s, c, m in inst.messages[n:] if s == 1 and c == "logStatusWarning"]
     assert any("wheel A's tooth tip" in m and "0.2 module" in m for m in warnings), inst.messages[n:]
     inst.slave.doStep(0.0, 1e-4)
+
+
+# ---- the tolerance rule (issue 10, point 1) ------------------------------------------------------
+
+
+def test_a_masters_default_tolerance_cannot_loosen_rel_tol(fmu_path, model_description):
+    """From rest with tau_A = 10, tau_B = -5, chi = 2 (the issue's case): FMPy with its defaults
+    (it passes the DefaultExperiment's tolerance, 1e-6) and a master passing 1e-4 (PyFMI's and
+    OMSimulator's default) must give the same trace; a tighter tolerance must be used."""
+    from fmpy import simulate_fmu
+
+    assert float(model_description.defaultExperiment.tolerance) == 1e-6
+    common = dict(stop_time=0.05, output_interval=1e-4, output=["dte", "w_A", "n_steps"],
+                  start_values={"tau_A": 10.0, "tau_B": -5.0, "chi": 2.0})
+    fmpy_default = simulate_fmu(str(fmu_path), **common)
+    loose_master = simulate_fmu(str(fmu_path), relative_tolerance=1e-4, **common)
+    tight_master = simulate_fmu(str(fmu_path), relative_tolerance=1e-9, **common)
+    for name in ("dte", "w_A", "n_steps"):
+        np.testing.assert_array_equal(fmpy_default[name], loose_master[name], err_msg=name)
+    # A tighter tolerance takes more internal steps.
+    assert tight_master["n_steps"][-1] > fmpy_default["n_steps"][-1]
