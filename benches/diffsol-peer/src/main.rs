@@ -475,7 +475,7 @@ fn main() {
         .unwrap_or_else(|| "unknown CPU".into());
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
     println!(
-        "diffsol-peer: diffsol 0.18.0 vs the FMU's DP5 / TR-BDF2; {cpu}, {cores} logical CPUs; {} reps, medians; options {:?}",
+        "diffsol-peer: diffsol 0.18.0 vs the FMU's DP5 / BDF; {cpu}, {cores} logical CPUs; {} reps, medians; options {:?}",
         a.reps, a.opts
     );
     for s in &a.scenes {

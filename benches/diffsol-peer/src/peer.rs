@@ -50,7 +50,7 @@ pub struct RunOut {
     pub restarts: u64,
 }
 
-/// Our methods: the FMU's driver through `Simulation`, solver 1 = DP5, 2 = TR-BDF2.
+/// Our methods: the FMU's driver through `Simulation`, solver 1 = DP5, 2 = BDF (diffsol's).
 pub fn run_ours(sc: &Scene, solver: i32, rtol: f64) -> Result<RunOut, String> {
     let mut p = sc.params.clone();
     p.solver = solver;
