@@ -397,7 +397,12 @@ impl Clone for Driver {
             } else {
                 self.step_limit
             },
-            start: MarginCache::default(),
+            // A copy continues exactly as the original only with the same margins at its start.
+            start: if restart_point {
+                MarginCache::default()
+            } else {
+                self.start.clone()
+            },
             max_step: self.max_step,
         }
     }
