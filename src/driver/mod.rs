@@ -548,12 +548,13 @@ impl Driver {
         }
     }
 
-    /// The earliest event in the last step. Each margin is known at the step's ends, with its
-    /// rate, and at the midpoint. A crossing shows at the end or the midpoint, or, for a margin
-    /// that dips below zero and comes back inside the step (a graze), at the interior minimum
-    /// of the cubic through its ends' values and rates: where that cubic's minimum comes near
-    /// zero (within the cubic's own error at the midpoint), the margin is evaluated there on the
-    /// dense output, after one Newton step on its rate towards the true minimum.
+    /// The earliest event in the last step. Each margin is known at the step's ends with its
+    /// rate; the cubic through those values and rates lies above a chord bound, and a margin
+    /// whose bound stays positive has not crossed. For the others the midpoint is evaluated
+    /// too, and where the cubic's interior minimum comes near zero (within four times the
+    /// cubic's error at the midpoint), the margin itself near that minimum, after one Newton
+    /// step on its rate. So a margin that dips below zero and comes back inside one step (a
+    /// graze) is found. The first sample below zero brackets the root.
     fn locate<S: System>(&mut self, sys: &S) -> Option<PendingEvent> {
         let (t0, t1) = (self.method.t_prev(), self.method.t());
         let (h, tm) = (t1 - t0, 0.5 * (t0 + t1));
