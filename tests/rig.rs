@@ -175,3 +175,63 @@ fn rigid_impacts_keep_the_energy_balance() {
         }
     }
 }
+
+/// rig-and-modes §3, static balance: balanced torques on the paper rig (rolling at 1e-3 rad/s so
+/// the pair at point a moves onto the segment), the mesh at its static penetration, the slider
+/// released from x_S = 0. At rest the slider carries F_B,x = F sin(alpha_w) (mu = 0), so
+/// x_S = F sin(alpha_w)/k_S, and the static dte rises by x_S sin(alpha_w) above the Johnson
+/// penetration of the two pairs. The release transient (critically damped slider, mesh damped
+/// at about 3 % by chi = 10 s/m, omega about 1e4 rad/s) has decayed by e^-15 after 0.05 s, and
+/// the integration at rel_tol 1e-10 is far tighter: 1e-5 relative bounds both.
+#[test]
+fn slider_static_balance() {
+    let (k, m) = (1e9, 44.4);
+    let tau_a = 100.0;
+    let base = Params {
+        chi: 10.0,
+        slider_stiffness: k,
+        slider_mass: m,
+        slider_damping: 2.0 * (k * m).sqrt(),
+        ..Params::default()
+    };
+    let g = Geometry::new(&base).unwrap();
+    let force = tau_a / g.r_ab;
+    // Johnson's law per unit width with R = L + delta, by fixed point (as tests/model_checks.rs).
+    let n = force / 2.0 / base.width;
+    let mut delta = 0.0;
+    for _ in 0..50 {
+        let r = g.l + delta;
+        let pi_e = std::f64::consts::PI * g.e_star;
+        delta = n / pi_e * ((4.0 * pi_e * r / n).ln() - 1.0);
+    }
+    let p = Params {
+        dte_start: delta,
+        w_A_start: 1e-3,
+        w_B_start: 1e-3 * g.r_ab / g.r_bb,
+        ..base
+    };
+    let i = Inputs {
+        tau_A: tau_a,
+        tau_B: -tau_a * g.r_bb / g.r_ab,
+        ..Inputs::default()
+    };
+    let (_, o) = run(&p, &i, 1e-10, 1e-3, 0.05).pop().unwrap();
+    let sin_a = g.alpha_w.sin();
+    let x = force * sin_a / k;
+    assert_eq!(o.n_fwd, 2);
+    assert!(rel(o.F_fwd, force) <= 1e-5, "F_fwd {} vs {force}", o.F_fwd);
+    assert!(
+        rel(o.F_B_x, force * sin_a) <= 1e-5,
+        "F_B_x {} vs {}",
+        o.F_B_x,
+        force * sin_a
+    );
+    assert!(rel(o.x_slider, x) <= 1e-5, "x_slider {} vs {x}", o.x_slider);
+    let dte = delta + x * sin_a;
+    assert!(
+        rel(o.dte, dte) <= 1e-5,
+        "dte {} vs {dte} (Johnson {delta} + slider {})",
+        o.dte,
+        x * sin_a
+    );
+}
