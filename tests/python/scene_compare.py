@@ -10,7 +10,7 @@ What is compared (issue 3, point 3):
   max |FMU - reference| <= [compare.tolerance] <variable> (physical units; each bound's reason is a
   comment in the scene file).  The reference repeats a row at each event (before, after).  On the
   grid we take the reference's grid row.  If an event of the reference falls exactly on a grid time
-  (none of the shipped scenes has one; the closest is 0.47 ns off the grid), both its rows are
+  (the rigid scenes release their lock at the input steps t = 0.03 and 0.06 s), both its rows are
   candidates and the closer one counts: FMI 2.0 does not say whether a Co-Simulation FMU reports
   the state just before or just after an event that ends a communication step, and FMPy records
   whatever the FMU returns after fmi2DoStep.
