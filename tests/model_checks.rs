@@ -1,6 +1,9 @@
 //! Spec §7 checks on the model and driver, in-process (the same checks run through the packaged
 //! FMU in tests/python). Every tolerance states where it comes from.
 
+mod common;
+
+use common::static_delta;
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
@@ -34,16 +37,6 @@ fn run(p: &Params, i: &Inputs, rtol: f64, h: f64, t_end: f64) -> Vec<Outputs> {
             sim.outputs().unwrap()
         })
         .collect()
-}
-
-/// Static penetration for a force per unit width N: eq. 5.1 with R = L + delta (fixed point in R).
-fn static_delta(n: f64, g: &Geometry) -> f64 {
-    let mut delta = 0.0;
-    for _ in 0..50 {
-        let r = g.l + delta;
-        delta = n / (PI * g.e_star) * ((4.0 * PI * g.e_star * r / n).ln() - 1.0);
-    }
-    delta
 }
 
 /// Static load: balanced torques, start at the static penetration, rolling slowly (1e-3 rad/s,

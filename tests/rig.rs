@@ -1,6 +1,9 @@
 //! The paper's whole rig (rig-and-modes.md): rigid contact, the slider S, a moving housing,
 //! against closed forms. Every tolerance states where it comes from.
 
+mod common;
+
+use common::static_delta;
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
@@ -196,14 +199,7 @@ fn slider_static_balance() {
     };
     let g = Geometry::new(&base).unwrap();
     let force = tau_a / g.r_ab;
-    // Johnson's law per unit width with R = L + delta, by fixed point (as tests/model_checks.rs).
-    let n = force / 2.0 / base.width;
-    let mut delta = 0.0;
-    for _ in 0..50 {
-        let r = g.l + delta;
-        let pi_e = std::f64::consts::PI * g.e_star;
-        delta = n / pi_e * ((4.0 * pi_e * r / n).ln() - 1.0);
-    }
+    let delta = static_delta(force / 2.0 / base.width, &g);
     let p = Params {
         dte_start: delta,
         w_A_start: 1e-3,
