@@ -97,7 +97,7 @@ impl Simulation {
             self.driver.invalidate();
             let mut y = self.driver.state();
             self.mesh.set_loads(loads, &mut y);
-            // A rigid lock released by the new loads keeps the state; only modes changed.
+            // Releasing a rigid lock may move the state onto the other flank (two-sided contact).
             self.driver.y_start = y;
             self.driver.tol.atol = self.mesh.abs_tol(self.driver.tol.rtol);
         }

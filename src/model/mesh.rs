@@ -947,19 +947,21 @@ impl Mesh {
     }
 
     /// A master changed inputs or tunable parameters: the right-hand side changes from here on.
-    /// Returns a rigid lock's release, if the new loads pull the teeth apart.
-    pub fn set_loads(&mut self, loads: Loads, y: &mut State) -> Option<String> {
+    pub fn set_loads(&mut self, loads: Loads, y: &mut State) {
         let was_damped = self.damped();
         self.loads = loads;
         if self.rigid() {
-            return self.recheck_lock(y);
+            // A lock the new loads would make pull is released: a mode change, counted as one.
+            if self.recheck_lock(y).is_some() {
+                self.n_events += 1;
+            }
+            return;
         }
         if self.damped() && !was_damped {
             for f in [Flank::Forward, Flank::Backward] {
                 self.set_sign(EventFn::Rel(f), y);
             }
         }
-        None
     }
 
     /// Tangent stiffness [N/m] of the carrying compliant contacts, summed.
