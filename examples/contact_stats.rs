@@ -1,5 +1,6 @@
 //! Fraction of samples in double / single / no contact for the paper rig, for a given dte_start and chi.
 use spur_gear_mesh::driver::simulation::Simulation;
+use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn main() {
@@ -32,7 +33,7 @@ fn main() {
     let mut min_dte = f64::INFINITY;
     for k in 1..=n {
         sim.advance(k as f64 * 1e-6, &mut |_, _| {}).unwrap();
-        let o = sim.outputs().unwrap();
+        let o = outputs(&sim).unwrap();
         c[o.n_fwd as usize] += 1;
         if k > n / 2 {
             min_dte = min_dte.min(o.dte);

@@ -1,5 +1,6 @@
 //! Runs the paper scene through the driver directly (no FMI) and prints a summary.
 use spur_gear_mesh::driver::simulation::Simulation;
+use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn main() {
@@ -25,7 +26,7 @@ fn main() {
     let mut max_diff: f64 = 0.0;
     for k in 1..=10000 {
         sim.advance(k as f64 * h, &mut |_, _| {}).unwrap();
-        let o = sim.outputs().unwrap();
+        let o = outputs(&sim).unwrap();
         match o.n_fwd {
             2 => n2 += 1,
             1 => n1 += 1,

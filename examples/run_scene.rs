@@ -28,6 +28,7 @@
 
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
+use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, Status};
 use spur_gear_mesh::model::{Loads, Mesh, State, NY};
 use spur_gear_mesh::variables::{Inputs, Params, Var, VarType, GUID, VARIABLES};
@@ -282,7 +283,7 @@ fn run_rust(c: &Config) -> RunResult {
     let mut sim = Simulation::new(&c.params, &inputs, 0.0, c.params.rel_tol).expect("scene");
     sim.driver.t_stop = c.stop_time;
     let mut rows = Vec::with_capacity(ts.len());
-    rows.push(outputs_row(0.0, &sim.outputs().unwrap()));
+    rows.push(outputs_row(0.0, &outputs(&sim).unwrap()));
     let mut error = None;
     for k in 0..ts.len() - 1 {
         if let Some(tab) = &c.table {
@@ -299,7 +300,7 @@ fn run_rust(c: &Config) -> RunResult {
             error = Some(e.to_string());
             break;
         }
-        match sim.outputs() {
+        match outputs(&sim) {
             Ok(o) => rows.push(outputs_row(ts[k + 1], &o)),
             Err(e) => {
                 error = Some(e.to_string());
@@ -309,7 +310,7 @@ fn run_rust(c: &Config) -> RunResult {
     }
     let (wall, cpu) = start.elapsed();
     let st = &sim.driver.stats;
-    let energy_residual = sim.outputs().map(|o| o.energy_residual).unwrap_or(f64::NAN);
+    let energy_residual = outputs(&sim).map(|o| o.energy_residual).unwrap_or(f64::NAN);
     RunResult {
         rows,
         counters: Counters {
@@ -470,6 +471,13 @@ struct Naive {
 }
 
 impl Naive {
+    fn outputs(&self) -> Result<spur_gear_mesh::variables::Outputs, String> {
+        let r = self.mesh.readout(&self.y).map_err(|e| e.to_string())?;
+        let mut o = spur_gear_mesh::variables::Outputs::default();
+        spur_gear_mesh::fmi::outputs::assemble(&r, &Default::default(), &mut o);
+        Ok(o)
+    }
+
     fn f(&mut self, y: &State) -> Result<State, String> {
         let mut dy = [0.0; NY];
         self.counters.rhs += 1;
@@ -544,7 +552,7 @@ fn run_naive(c: &Config) -> RunResult {
         counters: Counters::default(),
     };
     let mut rows = Vec::with_capacity(ts.len());
-    rows.push(outputs_row(0.0, &nv.mesh.outputs(&nv.y).unwrap()));
+    rows.push(outputs_row(0.0, &nv.outputs().unwrap()));
     let mut error = None;
     for k in 0..ts.len() - 1 {
         if let Some(tab) = &c.table {
@@ -562,7 +570,7 @@ fn run_naive(c: &Config) -> RunResult {
             error = Some(format!("at t = {}: {e}", ts[k + 1]));
             break;
         }
-        match nv.mesh.outputs(&nv.y) {
+        match nv.outputs() {
             Ok(o) => rows.push(outputs_row(ts[k + 1], &o)),
             Err(e) => {
                 error = Some(e.to_string());
@@ -571,11 +579,7 @@ fn run_naive(c: &Config) -> RunResult {
         }
     }
     let (wall, cpu) = start.elapsed();
-    let energy_residual = nv
-        .mesh
-        .outputs(&nv.y)
-        .map(|o| o.energy_residual)
-        .unwrap_or(f64::NAN);
+    let energy_residual = nv.outputs().map(|o| o.energy_residual).unwrap_or(f64::NAN);
     RunResult {
         rows,
         counters: nv.counters,

@@ -1,5 +1,6 @@
 //! Prints every located event and a few samples: a debugging aid for scenes.
 use spur_gear_mesh::driver::simulation::Simulation;
+use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn main() {
@@ -27,7 +28,7 @@ fn main() {
             println!("  event t={t:.9} {}", r.what)
         })
         .unwrap();
-        let o = sim.outputs().unwrap();
+        let o = outputs(&sim).unwrap();
         println!(
             "t={:.6} dte={:+.4e} F1={:8.2} F2={:8.2} n={} s1={:.5} s2={:.5}",
             sim.time(),

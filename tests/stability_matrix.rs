@@ -9,6 +9,7 @@
 
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
+use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, LoggerFn, Status};
 use spur_gear_mesh::variables::{Inputs, Params, Var, GUID};
 use std::ffi::{c_char, c_void, CStr, CString};
@@ -220,7 +221,7 @@ fn driver_run(case: &Case, solver: i32, rel_tol: f64) -> Option<Vec<[f64; 3]>> {
         loads.tau_a = i.tau_A;
         sim.set_loads(loads);
         sim.advance(t + case.comm_step, &mut |_, _| {}).ok()?;
-        let o = sim.outputs().ok()?;
+        let o = outputs(&sim).ok()?;
         out.push([o.dte, o.w_A, o.w_B]);
     }
     Some(out)

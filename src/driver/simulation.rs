@@ -3,9 +3,9 @@
 
 use super::{Driver, DriverError, Method, System, Tolerance};
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::{saturate, EventReport, LawOutOfRange};
+use crate::model::mesh::{EventReport, LawOutOfRange};
 use crate::model::{Loads, Mesh, ModelError, State};
-use crate::variables::{Inputs, Outputs, Params};
+use crate::variables::{Inputs, Params};
 
 impl System for Mesh {
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
@@ -123,16 +123,5 @@ impl Simulation {
         log: &mut dyn FnMut(f64, &EventReport),
     ) -> Result<(), DriverError> {
         self.driver.advance(&mut self.mesh, t_end, log)
-    }
-
-    pub fn outputs(&self) -> Result<Outputs, LawOutOfRange> {
-        let st = &self.driver.stats;
-        let mut o = self.mesh.outputs(&self.driver.state())?;
-        o.n_steps = saturate(st.steps);
-        o.n_rejected_steps = saturate(st.rejected);
-        o.n_rhs_evaluations = saturate(st.rhs_evals);
-        o.n_jacobians = saturate(st.jac_evals);
-        o.n_factorizations = saturate(st.factorizations);
-        Ok(o)
     }
 }

@@ -3,7 +3,7 @@
 //! `fmi2_slave::Instance`, whose names this module re-exports. A failing call leaves the values
 //! the instance had before it.
 
-use super::fmu_state;
+use super::{fmu_state, outputs};
 use crate::driver::simulation::Simulation;
 use crate::driver::DriverError;
 use crate::model::geometry;
@@ -36,8 +36,10 @@ pub struct Snapshot {
 #[derive(Clone, Debug)]
 pub struct SpurGearMesh {
     pub snap: Snapshot,
-    /// Outputs at the current time, computed on demand.
-    outputs: Option<Outputs>,
+    /// Outputs at the current time, computed on demand (valid while `fresh`), written in
+    /// place: they are read after every communication step.
+    outputs: Outputs,
+    fresh: bool,
 }
 
 impl Snapshot {
@@ -83,7 +85,7 @@ impl Slave for SpurGearMesh {
         self.snap.start_time = start;
         self.snap.stop_time = stop;
         self.snap.sim = None;
-        self.outputs = None;
+        self.fresh = false;
         Ok(())
     }
 
@@ -201,7 +203,7 @@ impl Slave for SpurGearMesh {
         for e in &events {
             log.log(Status::Ok, LOG_EVENTS, e);
         }
-        self.outputs = None;
+        self.fresh = false;
         let failure = match result {
             Ok(()) => match self.outputs() {
                 Ok(_) => None,
@@ -221,7 +223,7 @@ impl Slave for SpurGearMesh {
                 Some(b) => self.snap.sim = Some(b),
                 None => self.snap.sim.as_mut().expect("stepped").driver.t = t,
             }
-            self.outputs = None;
+            self.fresh = false;
             return Err(f);
         }
         if log.enabled(LOG_SOLVER) {
@@ -264,7 +266,8 @@ impl From<Snapshot> for SpurGearMesh {
     fn from(snap: Snapshot) -> SpurGearMesh {
         SpurGearMesh {
             snap,
-            outputs: None,
+            outputs: Outputs::default(),
+            fresh: false,
         }
     }
 }
@@ -292,7 +295,7 @@ impl SpurGearMesh {
                 sim.driver.t_stop = stop;
             }
             self.snap.sim = Some(sim);
-            self.outputs = None;
+            self.fresh = false;
         }
         Ok(self.snap.sim.as_mut().expect("just built"))
     }
@@ -301,17 +304,19 @@ impl SpurGearMesh {
     /// A non-finite one (e.g. from absurd start values) is an error naming it: no NaN or
     /// infinity ever reaches a master.
     pub fn outputs(&mut self) -> Result<&Outputs, Failure> {
-        if self.outputs.is_none() {
-            let o = self.build()?.outputs().map_err(|e| error(e.to_string()))?;
-            if let Some((name, x)) = o.first_non_finite() {
+        if !self.fresh {
+            self.build()?;
+            let sim = self.snap.sim.as_ref().expect("just built");
+            outputs::write(sim, &mut self.outputs).map_err(|e| error(e.to_string()))?;
+            if let Some((name, x)) = self.outputs.first_non_finite() {
                 return Err(error(format!(
                     "output {name} = {x} is not finite at t = {}: check the parameters and start values",
                     self.time()
                 )));
             }
-            self.outputs = Some(o);
+            self.fresh = true;
         }
-        Ok(self.outputs.as_ref().expect("just computed"))
+        Ok(&self.outputs)
     }
 
     fn value<T>(
@@ -326,7 +331,7 @@ impl SpurGearMesh {
             Causality::Parameter => param(&self.snap.params),
             Causality::Input => input(&self.snap.inputs),
             Causality::Output => output(self.outputs()?),
-            Causality::CalculatedParameter => calc(&self.build()?.mesh.calculated()),
+            Causality::CalculatedParameter => calc(&outputs::calculated(&self.build()?.mesh)),
         };
         Ok(got.expect("the generated table gives every variable a getter of its type"))
     }
@@ -361,7 +366,7 @@ impl SpurGearMesh {
         }
         self.snap.params = params;
         self.snap.inputs = inputs;
-        self.outputs = None;
+        self.fresh = false;
         if running {
             let loads = self.loads();
             if let Some(sim) = self.snap.sim.as_mut() {

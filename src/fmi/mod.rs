@@ -2,13 +2,14 @@
 //! the C types, logging, the instance with its state machine, FMU states and their serialized
 //! envelope, the exported functions -- is the `fmi2_slave` crate (fmi2-slave/). Here is what is
 //! SpurGearMesh's own: `instance` (the model as an `fmi2_slave::Slave`: parameters, inputs and
-//! the simulation; get/set, initialization, stepping) and `fmu_state` (the payload of its
-//! serialized FMU states). `exports` defines the fmi2* functions for it. The layer knows the
+//! the simulation; get/set, initialization, stepping), `outputs` (the model's readout as the
+//! variable table's outputs) and `fmu_state` (the payload of its serialized FMU states). `exports` defines the fmi2* functions for it. The layer knows the
 //! model only as a `Simulation` and the variable table.
 
 pub mod exports;
 pub mod fmu_state;
 pub mod instance;
+pub mod outputs;
 
 pub use fmi2_slave::logging;
 pub use fmi2_slave::{

@@ -18,7 +18,7 @@ use super::johnson::{self, OutOfRange};
 use super::rig::{self, Slider};
 use super::rigid::{self, Impact};
 use super::ModelError;
-use crate::variables::{Calculated, Inputs, Outputs, Params};
+use crate::variables::{Inputs, Params};
 
 pub const NY: usize = 8;
 pub type State = [f64; NY];
@@ -136,6 +136,12 @@ pub struct Mesh {
     backlash: f64,
     sin_a: f64,
     cos_a: f64,
+    /// 1/m_eff along the line of action (rig-and-modes §2), and reciprocals for the rigid
+    /// constraint force (benches/rig_cost.rs: its divisions were a tenth of a rigid step).
+    inv_m_eff: f64,
+    inv_j_a: f64,
+    inv_j_b: f64,
+    inv_r_bb: f64,
     present: [bool; SLOTS],
     /// s_A = sigma + dir rAb theta_A for each slot.
     pub sigma: [f64; SLOTS],
@@ -149,6 +155,39 @@ pub struct Mesh {
     pub n_events: u64,
     pub n_impacts: u64,
     pub(crate) e_start: f64,
+}
+
+/// What the mesh shows at a state: the wheels, each contact object's force and contact point,
+/// the loads on the wheels and on B's bearing, and the energy account.
+#[derive(Clone, Debug)]
+pub struct Readout {
+    pub theta_a: f64,
+    pub theta_b: f64,
+    pub w_a: f64,
+    pub w_b: f64,
+    pub dte: f64,
+    /// Normal force of each contact object (slots f1, f2, b1, b2).
+    pub pair_force: [f64; SLOTS],
+    /// Each object's contact point on the line of action, from K_A.
+    pub contact_point: [f64; SLOTS],
+    /// Total normal force and number of carrying pairs, forward and backward flank.
+    pub flank_force: [f64; 2],
+    pub flank_pairs: [u32; 2],
+    /// Mesh torques on A and B.
+    pub tq_a: f64,
+    pub tq_b: f64,
+    pub p_loss: f64,
+    pub e_kin: f64,
+    pub e_el: f64,
+    pub w_ext: f64,
+    pub w_loss: f64,
+    pub e_gate: f64,
+    pub energy_residual: f64,
+    pub n_events: u64,
+    pub n_impacts: u64,
+    pub x_slider: f64,
+    /// The mesh force on B (x, y).
+    pub force_on_b: [f64; 2],
 }
 
 /// What happened at an event, for the log.
@@ -193,6 +232,9 @@ impl Mesh {
             }
         }
         let (sin_a, cos_a) = geo.alpha_w.sin_cos();
+        let inv_m_eff = geo.r_ab * geo.r_ab / p.J_A
+            + geo.r_bb * geo.r_bb / p.J_B
+            + slider.map_or(0.0, |s| sin_a * sin_a / s.m);
         let mut mesh = Mesh {
             width: p.width,
             j_a: p.J_A,
@@ -200,6 +242,10 @@ impl Mesh {
             backlash: p.backlash,
             sin_a,
             cos_a,
+            inv_m_eff,
+            inv_j_a: 1.0 / p.J_A,
+            inv_j_b: 1.0 / p.J_B,
+            inv_r_bb: 1.0 / geo.r_bb,
             loads: Loads::new(p, inputs),
             law,
             slider,
@@ -422,10 +468,21 @@ impl Mesh {
         let unit = self.unit_load(f, y)?;
         let g = &self.geo;
         // d^2 delta/dt^2 = a0 + a1 N: the free acceleration and the effect of a unit N.
-        let (dw_a, acc_b, acc_x) = self.accelerations(y, &MeshLoad::default(), 1.0);
-        let a0 = f.dir() * (g.r_ab * dw_a - g.r_bb * acc_b) - self.sin_a * acc_x;
+        // The free accelerations as in `accelerations`, by reciprocals: this runs at every
+        // communication point of a locked rigid mesh, where the chain of three divisions was
+        // a tenth of the wall time. (The compliant right-hand side keeps its divisions, and so
+        // its trajectories bit for bit.)
+        let l = &self.loads;
+        let w_b = (g.r_ab * y[W_A] - y[DDTE]) * self.inv_r_bb;
+        let dw_a = l.tau_a * self.inv_j_a + l.alpha_housing;
+        let acc_b = (l.tau_b - l.c_load * w_b) * self.inv_j_b - l.alpha_housing;
         let inv_m = self.slider.map_or(0.0, |s| 1.0 / s.m);
-        let a1 = f.dir() * (g.r_ab * unit.tq_a / self.j_a - g.r_bb * unit.tq_b / self.j_b)
+        let acc_x = self.slider.map_or(0.0, |s| {
+            -(s.k * y[X_S] + s.c * y[V_S]) * inv_m - l.a_housing_x
+        });
+        let a0 = f.dir() * (g.r_ab * dw_a - g.r_bb * acc_b) - self.sin_a * acc_x;
+        // Without friction a1 = -1/m_eff.
+        let a1 = f.dir() * (g.r_ab * unit.tq_a * self.inv_j_a - g.r_bb * unit.tq_b * self.inv_j_b)
             - self.sin_a * unit.f_bx * inv_m;
         let n = rigid::lock_force(a0, a1)?;
         Some((n, unit))
@@ -736,14 +793,6 @@ impl Mesh {
         0.5 * (self.j_a * y[W_A] * y[W_A] + self.j_b * w_b * w_b) + slider
     }
 
-    /// 1/m_eff of an impact along the line of action (rig-and-modes §2).
-    fn inv_effective_mass(&self) -> f64 {
-        let g = &self.geo;
-        g.r_ab * g.r_ab / self.j_a
-            + g.r_bb * g.r_bb / self.j_b
-            + self.slider.map_or(0.0, |s| self.sin_a * self.sin_a / s.m)
-    }
-
     /// A rigid tooth impact on flank f (Newton's law), then a lock if the rebound is too short
     /// to resolve (see `rigid::Impact::ends_in_lock`). Returns what happened.
     fn impact(&mut self, f: Flank, y: &mut State) -> String {
@@ -766,7 +815,7 @@ impl Mesh {
         let v_minus = rate.max(0.0);
         // No room to rebound into with two-sided contact: the impact is plastic.
         let e = if two_sided { 0.0 } else { restitution };
-        let imp = Impact::new(v_minus, e, self.inv_effective_mass());
+        let imp = Impact::new(v_minus, e, self.inv_m_eff);
         self.apply_impulse(f, imp.impulse, y);
         let g = &self.geo;
         let mut dy = [0.0; NY];
@@ -816,7 +865,7 @@ impl Mesh {
         for c in candidates {
             let mut yl = *y;
             let rate = self.flank_delta(c, &yl).1;
-            self.apply_impulse(c, rate / self.inv_effective_mass(), &mut yl);
+            self.apply_impulse(c, rate / self.inv_m_eff, &mut yl);
             self.touch(c, &mut yl);
             let vx = yl[V_S] * self.sin_a;
             yl[DDTE] = match c {
@@ -989,7 +1038,7 @@ impl Mesh {
     /// the coupled system bounds its largest eigenvalue); 0 without contact or slider.
     pub fn vibration_frequency(&self, y: &State) -> f64 {
         let slider = self.slider.map_or(0.0, |s| s.k / s.m);
-        (self.mesh_stiffness(y) * self.inv_effective_mass() + slider).sqrt()
+        (self.mesh_stiffness(y) * self.inv_m_eff + slider).sqrt()
     }
 
     /// Elastic energy of the carrying pairs and of the slider's spring.
@@ -1033,10 +1082,12 @@ impl Mesh {
         let (load, locked) = self.rigid_load(y);
         if let Some((f, n)) = locked {
             let gated = || (0..SLOTS).filter(move |&k| slot_flank(k) == f && self.gated(k));
-            let count = gated().count();
+            // 1 or 2 pairs: the product by the exact reciprocal is the quotient, without a
+            // second division after the constraint force's.
+            let share = [1.0, 0.5][gated().count() - 1];
             let (w_a, w_b) = (y[W_A], self.w_b(y));
             for k in gated() {
-                let fn_ = n / count as f64;
+                let fn_ = n * share;
                 let mut ft = 0.0;
                 if self.loads.mu > 0.0 {
                     let s_a = self.s_contact(k, y);
@@ -1048,13 +1099,14 @@ impl Mesh {
         Ok((pairs, load))
     }
 
-    pub fn outputs(&self, y: &State) -> Result<Outputs, LawOutOfRange> {
+    /// What the mesh shows at state y (the FMI layer maps it onto its outputs).
+    pub fn readout(&self, y: &State) -> Result<Readout, LawOutOfRange> {
         let g = &self.geo;
         let mut s = [0.0; SLOTS];
-        let (mut f_flank, mut n_flank) = ([0.0; 2], [0; 2]);
+        let (mut flank_force, mut flank_pairs) = ([0.0; 2], [0; 2]);
         let (pairs, load) = self.pair_forces(y)?;
         let parked = [self.parked(Flank::Forward), self.parked(Flank::Backward)];
-        let (mut f_bx, mut f_by) = (0.0, 0.0);
+        let mut force_on_b = [0.0; 2];
         for k in 0..SLOTS {
             if !self.present[k] {
                 continue;
@@ -1068,72 +1120,39 @@ impl Mesh {
             };
             if self.carrying(k) {
                 let f = slot_flank(k);
-                f_flank[f as usize] += pairs[k].0;
-                n_flank[f as usize] += 1;
+                flank_force[f as usize] += pairs[k].0;
+                flank_pairs[f as usize] += 1;
                 let (fx, fy) = rig::force_on_b(f, pairs[k].0, pairs[k].1, self.sin_a, self.cos_a);
-                f_bx += fx;
-                f_by += fy;
+                force_on_b[0] += fx;
+                force_on_b[1] += fy;
             }
         }
         let (balance, e_kin, e_el) = self.energy_terms(y)?;
-        // The right-hand side's dissipation, from the load already at hand.
-        let p_loss = load.p_loss + self.slider.map_or(0.0, |s| s.c * y[V_S] * y[V_S]);
-        Ok(Outputs {
-            theta_A: y[THETA_A],
-            theta_B: (g.r_ab * y[THETA_A] - y[DTE]) / g.r_bb,
-            w_A: y[W_A],
-            w_B: self.w_b(y),
+        Ok(Readout {
+            theta_a: y[THETA_A],
+            theta_b: (g.r_ab * y[THETA_A] - y[DTE]) / g.r_bb,
+            w_a: y[W_A],
+            w_b: self.w_b(y),
             dte: y[DTE],
-            F_f1: pairs[0].0,
-            F_f2: pairs[1].0,
-            F_b1: pairs[2].0,
-            F_b2: pairs[3].0,
-            F_fwd: f_flank[0],
-            F_bwd: f_flank[1],
-            n_fwd: n_flank[0],
-            n_bwd: n_flank[1],
-            tau_mesh_A: load.tq_a,
-            tau_mesh_B: load.tq_b,
-            P_loss: p_loss,
-            s_f1: s[0],
-            s_f2: s[1],
-            s_b1: s[2],
-            s_b2: s[3],
-            E_kin: e_kin,
-            E_el: e_el,
-            W_ext: y[W_EXT],
-            W_loss: y[W_LOSS],
-            E_gate: self.e_gate,
+            pair_force: pairs.map(|p| p.0),
+            contact_point: s,
+            flank_force,
+            flank_pairs,
+            tq_a: load.tq_a,
+            tq_b: load.tq_b,
+            // The right-hand side's dissipation, from the load already at hand.
+            p_loss: load.p_loss + self.slider.map_or(0.0, |s| s.c * y[V_S] * y[V_S]),
+            e_kin,
+            e_el,
+            w_ext: y[W_EXT],
+            w_loss: y[W_LOSS],
+            e_gate: self.e_gate,
             energy_residual: balance - self.e_start,
-            n_events: saturate(self.n_events),
-            n_impacts: saturate(self.n_impacts),
+            n_events: self.n_events,
+            n_impacts: self.n_impacts,
             x_slider: y[X_S],
-            F_B_x: f_bx,
-            F_B_y: f_by,
-            // The driver's counters; the simulation fills them in.
-            n_steps: 0,
-            n_rejected_steps: 0,
-            n_rhs_evaluations: 0,
-            n_jacobians: 0,
-            n_factorizations: 0,
+            force_on_b,
         })
-    }
-
-    pub fn calculated(&self) -> Calculated {
-        let g = &self.geo;
-        Calculated {
-            alpha_w: g.alpha_w,
-            rAb: g.r_ab,
-            rBb: g.r_bb,
-            line_of_action: g.l,
-            s_a: g.s_a,
-            s_b: g.s_b,
-            contact_ratio: g.eps,
-            r_tipA: g.r_tip_a,
-            r_tipB: g.r_tip_b,
-            base_pitch: g.p_b,
-            contact_objects_per_flank: g.m_c as i32,
-        }
     }
 
     /// Components under error control: the slider's two only when there is one.
@@ -1196,11 +1215,6 @@ fn other(f: Flank) -> Flank {
     }
 }
 
-/// A counter as an FMI Integer, saturating at 2^31 - 1.
-pub fn saturate(n: u64) -> i32 {
-    n.min(i32::MAX as u64) as i32
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1232,8 +1246,8 @@ mod tests {
         assert!(m.sign[EventFn::Gate(0).index()] && m.sign[EventFn::Gate(1).index()]);
         assert!(!m.sign[EventFn::Gate(2).index()] && m.sign[EventFn::Gate(3).index()]);
         assert!(m.flank_on(Flank::Forward) && !m.flank_on(Flank::Backward));
-        let o = m.outputs(&y).unwrap();
-        assert_eq!((o.F_fwd, o.n_fwd), (0.0, 2));
+        let o = m.readout(&y).unwrap();
+        assert_eq!((o.flank_force[0], o.flank_pairs[0]), (0.0, 2));
     }
 
     /// Spec §4: the power of the contact torques equals -F_n d(delta)/dt - F_t v_s, i.e. the
@@ -1279,11 +1293,12 @@ mod tests {
             ..Params::default()
         };
         let (m, y) = Mesh::new(&p, &Inputs::default()).unwrap();
-        let o = m.outputs(&y).unwrap();
-        assert_eq!(o.P_loss, 0.0);
+        let o = m.readout(&y).unwrap();
+        let f = o.flank_force[0];
+        assert_eq!(o.p_loss, 0.0);
         // Without friction the torques are the normal force times the base radii exactly.
-        assert!((o.tau_mesh_A + o.F_fwd * m.geo.r_ab).abs() <= 1e-12 * o.F_fwd);
-        assert!((o.tau_mesh_B - o.F_fwd * m.geo.r_bb).abs() <= 1e-12 * o.F_fwd);
+        assert!((o.tq_a + f * m.geo.r_ab).abs() <= 1e-12 * f);
+        assert!((o.tq_b - f * m.geo.r_bb).abs() <= 1e-12 * f);
     }
 
     #[test]

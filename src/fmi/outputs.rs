@@ -1,0 +1,88 @@
+//! The FMU's outputs and calculated parameters, assembled from the model's readout and the
+//! driver's counters: the one place that maps model quantities onto variable-table names.
+
+use crate::driver::simulation::Simulation;
+use crate::driver::Stats;
+use crate::model::mesh::{LawOutOfRange, Readout};
+use crate::model::Mesh;
+use crate::variables::{Calculated, Outputs};
+
+/// A counter as an FMI Integer, saturating at 2^31 - 1.
+fn saturate(n: u64) -> i32 {
+    n.min(i32::MAX as u64) as i32
+}
+
+/// The outputs at the simulation's current time.
+pub fn outputs(sim: &Simulation) -> Result<Outputs, LawOutOfRange> {
+    let mut o = Outputs::default();
+    write(sim, &mut o)?;
+    Ok(o)
+}
+
+/// Writes the outputs at the simulation's current time into `o` (the FMU reads them after
+/// every communication step; in place saves two copies of the struct).
+pub fn write(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
+    let r = sim.mesh.readout(&sim.driver.state())?;
+    assemble(&r, &sim.driver.stats, o);
+    Ok(())
+}
+
+/// The outputs of a readout, with the integrator's counters.
+pub fn assemble(r: &Readout, st: &Stats, o: &mut Outputs) {
+    *o = Outputs {
+        theta_A: r.theta_a,
+        theta_B: r.theta_b,
+        w_A: r.w_a,
+        w_B: r.w_b,
+        dte: r.dte,
+        F_f1: r.pair_force[0],
+        F_f2: r.pair_force[1],
+        F_b1: r.pair_force[2],
+        F_b2: r.pair_force[3],
+        F_fwd: r.flank_force[0],
+        F_bwd: r.flank_force[1],
+        n_fwd: r.flank_pairs[0] as i32,
+        n_bwd: r.flank_pairs[1] as i32,
+        tau_mesh_A: r.tq_a,
+        tau_mesh_B: r.tq_b,
+        P_loss: r.p_loss,
+        s_f1: r.contact_point[0],
+        s_f2: r.contact_point[1],
+        s_b1: r.contact_point[2],
+        s_b2: r.contact_point[3],
+        E_kin: r.e_kin,
+        E_el: r.e_el,
+        W_ext: r.w_ext,
+        W_loss: r.w_loss,
+        E_gate: r.e_gate,
+        energy_residual: r.energy_residual,
+        n_events: saturate(r.n_events),
+        n_impacts: saturate(r.n_impacts),
+        x_slider: r.x_slider,
+        F_B_x: r.force_on_b[0],
+        F_B_y: r.force_on_b[1],
+        n_steps: saturate(st.steps),
+        n_rejected_steps: saturate(st.rejected),
+        n_rhs_evaluations: saturate(st.rhs_evals),
+        n_jacobians: saturate(st.jac_evals),
+        n_factorizations: saturate(st.factorizations),
+    };
+}
+
+/// The calculated parameters: the pair's geometry.
+pub fn calculated(mesh: &Mesh) -> Calculated {
+    let g = &mesh.geo;
+    Calculated {
+        alpha_w: g.alpha_w,
+        rAb: g.r_ab,
+        rBb: g.r_bb,
+        line_of_action: g.l,
+        s_a: g.s_a,
+        s_b: g.s_b,
+        contact_ratio: g.eps,
+        r_tipA: g.r_tip_a,
+        r_tipB: g.r_tip_b,
+        base_pitch: g.p_b,
+        contact_objects_per_flank: g.m_c as i32,
+    }
+}
