@@ -474,7 +474,12 @@ impl Naive {
     fn outputs(&self) -> Result<spur_gear_mesh::variables::Outputs, String> {
         let r = self.mesh.readout(&self.y).map_err(|e| e.to_string())?;
         let mut o = spur_gear_mesh::variables::Outputs::default();
-        spur_gear_mesh::fmi::outputs::assemble(&r, &Default::default(), &mut o);
+        spur_gear_mesh::fmi::outputs::assemble(
+            &r,
+            &Default::default(),
+            &Default::default(),
+            &mut o,
+        );
         Ok(o)
     }
 

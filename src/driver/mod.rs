@@ -36,6 +36,16 @@ pub trait System {
     fn max_step(&self, y: &State, explicit: bool) -> f64;
     /// The number of state components in use, a prefix of `State`.
     fn dim(&self) -> usize;
+    /// Takes in the piece [t0, t1] of a step between events, on which `y` is the dense output
+    /// and the modes hold (the run's statistics). Systems that keep none ignore it.
+    fn observe(
+        &mut self,
+        _t0: f64,
+        _t1: f64,
+        _y: &dyn Fn(f64) -> State,
+    ) -> Result<(), LawOutOfRange> {
+        Ok(())
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -371,6 +381,8 @@ pub struct Driver {
     pub(crate) start: MarginCache,
     /// A cap on the internal step (tests force small steps with it); infinite by default.
     pub max_step: f64,
+    /// `System::observe` has seen the dense output up to this time.
+    pub observed: f64,
 }
 
 impl Clone for Driver {
@@ -404,6 +416,7 @@ impl Clone for Driver {
                 self.start.clone()
             },
             max_step: self.max_step,
+            observed: self.observed,
         }
     }
 }
@@ -423,6 +436,7 @@ impl Driver {
             step_limit: f64::NAN,
             start: MarginCache::default(),
             max_step: f64::INFINITY,
+            observed: t0,
         }
     }
 
@@ -440,8 +454,22 @@ impl Driver {
         self.method.t()
     }
 
-    /// The right-hand side changes from the current time on (new inputs or tunables).
+    /// Hands the dense output from the last observation up to t (inside the current step) to
+    /// the system.
+    pub fn observe_to<S: System>(&mut self, sys: &mut S, t: f64) -> Result<(), DriverError> {
+        if !self.needs_restart && t > self.observed {
+            let method = &self.method;
+            sys.observe(self.observed, t, &|x| method.interpolate(x))
+                .map_err(|err| DriverError::Law { t, err })?;
+        }
+        self.observed = self.observed.max(t);
+        Ok(())
+    }
+
+    /// The right-hand side changes from the current time on (new inputs or tunables). The
+    /// system has observed the dense output up to here (`observe_to`).
     pub fn invalidate(&mut self) {
+        debug_assert!(self.needs_restart || self.observed >= self.t);
         if !self.needs_restart {
             self.y_start = self.state();
             self.needs_restart = true;
@@ -472,6 +500,7 @@ impl Driver {
                     return Ok(());
                 }
                 self.pending = None;
+                self.observe_to(sys, ev.t)?;
                 let mut y = self.method.interpolate(ev.t);
                 let report = sys
                     .handle_event(ev.index, &mut y)
@@ -495,6 +524,7 @@ impl Driver {
                     events: self.cap.events,
                 });
             }
+            self.observe_to(sys, self.method.t())?;
             if self.step_limit.is_nan() || self.stats.steps % STEP_LIMIT_AGE == 0 {
                 let explicit = matches!(self.method, Method::Dopri5(_));
                 self.step_limit = sys.max_step(self.method.y(), explicit);
@@ -531,6 +561,7 @@ impl Driver {
             .map_err(|e| self.step_error(e))?;
         self.needs_restart = false;
         self.pending = None;
+        self.observed = t;
         self.y_start = *y;
         self.step_limit = f64::NAN;
         self.start = MarginCache::default();

@@ -4,6 +4,7 @@
 use super::{Driver, DriverError, Method, System, Tolerance};
 use crate::model::contact::N_EVENTS;
 use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::statistics::Statistics;
 use crate::model::{Loads, Mesh, ModelError, State};
 use crate::variables::{Inputs, Params};
 
@@ -62,12 +63,36 @@ impl System for Mesh {
     fn dim(&self) -> usize {
         Mesh::dim(self)
     }
+    fn observe(&mut self, t0: f64, t1: f64, y: &dyn Fn(f64) -> State) -> Result<(), LawOutOfRange> {
+        let Some(mut s) = self.stats.take() else {
+            return Ok(());
+        };
+        let r = s.add(self, t0, t1, y);
+        self.stats = Some(s);
+        r
+    }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Simulation {
     pub mesh: Mesh,
     pub driver: Driver,
+}
+
+impl Clone for Simulation {
+    /// A BDF driver clones into a restart point at the current time (see `Driver::clone`), so
+    /// the clone takes the statistics up to that time with it.
+    fn clone(&self) -> Self {
+        let mut c = Simulation {
+            mesh: self.mesh.clone(),
+            driver: self.driver.clone(),
+        };
+        if c.driver.needs_restart && c.driver.observed < c.driver.t {
+            c.mesh.stats = self.statistics();
+            c.driver.observed = c.driver.t;
+        }
+        c
+    }
 }
 
 impl Simulation {
@@ -94,6 +119,7 @@ impl Simulation {
     /// New inputs or tunable parameters; a change restarts the integration at the current time.
     pub fn set_loads(&mut self, loads: Loads) {
         if loads != self.mesh.loads {
+            self.observe_to_now();
             self.driver.invalidate();
             let mut y = self.driver.state();
             self.mesh.set_loads(loads, &mut y);
@@ -107,8 +133,31 @@ impl Simulation {
     /// at the current point too, so the saved and the live one continue identically.
     pub fn make_restart_point_if_needed(&mut self) {
         if matches!(self.driver.method, super::Method::Bdf(_)) {
+            self.observe_to_now();
             self.driver.invalidate();
         }
+    }
+
+    /// Commits the statistics up to the current time before a restart drops the dense output.
+    fn observe_to_now(&mut self) {
+        let t = self.driver.t;
+        if self.driver.observe_to(&mut self.mesh, t).is_err() {
+            self.mesh.stats.as_mut().map(|s| s.poison());
+        }
+    }
+
+    /// The statistics up to the current time: those committed at the last step or event, and
+    /// the piece of the current step since then.
+    pub fn statistics(&self) -> Option<Statistics> {
+        let mut s = self.mesh.stats.clone()?;
+        let d = &self.driver;
+        if !d.needs_restart && d.t > d.observed {
+            let y = |x| d.method.interpolate(x);
+            if s.add(&self.mesh, d.observed, d.t, &y).is_err() {
+                s.poison();
+            }
+        }
+        Some(s)
     }
 
     /// Whether advancing to t_end integrates or handles an event (else it only moves the time).

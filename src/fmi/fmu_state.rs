@@ -19,7 +19,7 @@ use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
 /// The version of the payload below (the envelope's format version).
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
 /// Parameters or inputs, in the table's order.
 fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
@@ -81,6 +81,19 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
     w.u(m.n_events);
     w.u(m.n_impacts);
     w.f(m.e_start);
+    // The statistics (their presence follows from the parameters).
+    if let Some(st) = &m.stats {
+        w.fs(&[
+            st.duration,
+            st.int_dte,
+            st.int_dte2,
+            st.dte_min,
+            st.dte_max,
+            st.f_max,
+            st.t_separated,
+            st.t_backward,
+        ]);
+    }
     let d = &s.driver;
     w.f(d.tol.rtol);
     w.fs(&d.tol.atol);
@@ -105,6 +118,7 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
     w.f(d.t_stop);
     w.fs(&d.y_start);
     w.f(d.step_limit);
+    w.f(d.observed);
     // The event margins at the step's start: a recomputation would round differently.
     let start = d.start.get();
     w.b(start.is_some());
@@ -140,7 +154,12 @@ fn check_values(s: &Simulation) -> Result<(), String> {
         Method::Dopri5(x) => (x.t, x.t_prev, x.h, x.y),
         Method::Bdf(x) => (x.t, x.t_prev, x.h, x.y),
     };
-    let mut values = vec![d.t, t, t_prev, m.e_gate, m.e_start];
+    let mut values = vec![d.t, d.observed, t, t_prev, m.e_gate, m.e_start];
+    if let Some(st) = &m.stats {
+        // dte_min and dte_max are infinite until the statistics start.
+        values.extend_from_slice(&[st.duration, st.int_dte, st.int_dte2, st.f_max]);
+        values.extend_from_slice(&[st.t_separated, st.t_backward]);
+    }
     values.extend_from_slice(&y);
     values.extend_from_slice(&d.y_start);
     values.extend_from_slice(&m.sigma);
@@ -198,6 +217,18 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     m.n_events = r.u()?;
     m.n_impacts = r.u()?;
     m.e_start = r.f()?;
+    if let Some(st) = m.stats.as_mut() {
+        [
+            st.duration,
+            st.int_dte,
+            st.int_dte2,
+            st.dte_min,
+            st.dte_max,
+            st.f_max,
+            st.t_separated,
+            st.t_backward,
+        ] = r.fs()?;
+    }
     let d = &mut s.driver;
     d.tol.rtol = r.f()?;
     d.tol.atol = r.fs::<N_CONTROLLED>()?;
@@ -229,6 +260,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     d.t_stop = r.f()?;
     d.y_start = r.fs::<NY>()?;
     d.step_limit = r.f()?;
+    d.observed = r.f()?;
     let (has_start, t, m, rates) = (r.b()?, r.f()?, r.fs()?, r.fs()?);
     d.start = MarginCache::new(has_start.then_some((t, m, rates)));
     d.method = match r.u()? {

@@ -4,6 +4,7 @@
 use crate::driver::simulation::Simulation;
 use crate::driver::Stats;
 use crate::model::mesh::{LawOutOfRange, Readout};
+use crate::model::statistics::Summary;
 use crate::model::Mesh;
 use crate::variables::{Calculated, Outputs};
 
@@ -23,12 +24,13 @@ pub fn outputs(sim: &Simulation) -> Result<Outputs, LawOutOfRange> {
 /// every communication step; in place saves two copies of the struct).
 pub fn write(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
     let r = sim.mesh.readout(&sim.driver.state())?;
-    assemble(&r, &sim.driver.stats, o);
+    let summary = sim.statistics().map(|s| s.summary()).unwrap_or_default();
+    assemble(&r, &summary, &sim.driver.stats, o);
     Ok(())
 }
 
-/// The outputs of a readout, with the integrator's counters.
-pub fn assemble(r: &Readout, st: &Stats, o: &mut Outputs) {
+/// The outputs of a readout, with the run's statistics and the integrator's counters.
+pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
     *o = Outputs {
         theta_A: r.theta_a,
         theta_B: r.theta_b,
@@ -61,6 +63,13 @@ pub fn assemble(r: &Readout, st: &Stats, o: &mut Outputs) {
         x_slider: r.x_slider,
         F_B_x: r.force_on_b[0],
         F_B_y: r.force_on_b[1],
+        dte_mean: run.dte_mean,
+        dte_rms: run.dte_rms,
+        dte_min: run.dte_min,
+        dte_max: run.dte_max,
+        F_max: run.f_max,
+        t_separated: run.t_separated,
+        t_backward: run.t_backward,
         n_steps: saturate(st.steps),
         n_rejected_steps: saturate(st.rejected),
         n_rhs_evaluations: saturate(st.rhs_evals),

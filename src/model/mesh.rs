@@ -17,6 +17,7 @@ use super::geometry::Geometry;
 use super::johnson::{self, OutOfRange};
 use super::rig::{self, Slider};
 use super::rigid::{self, Impact};
+use super::statistics::Statistics;
 use super::ModelError;
 use crate::variables::{Inputs, Params};
 
@@ -155,6 +156,8 @@ pub struct Mesh {
     pub n_events: u64,
     pub n_impacts: u64,
     pub(crate) e_start: f64,
+    /// The run's statistics up to the driver's last observation (parameter `statistics`).
+    pub stats: Option<Statistics>,
 }
 
 /// What the mesh shows at a state: the wheels, each contact object's force and contact point,
@@ -257,6 +260,7 @@ impl Mesh {
             n_events: 0,
             n_impacts: 0,
             e_start: 0.0,
+            stats: p.statistics.then(|| Statistics::new(p.stats_start)),
         };
         let v = geo_r_ab * p.w_A_start - geo_r_bb * p.w_B_start;
         let mut y = [theta_a, p.dte_start, p.w_A_start, v, 0.0, 0.0, 0.0, 0.0];
@@ -341,6 +345,22 @@ impl Mesh {
 
     pub fn carrying(&self, k: usize) -> bool {
         self.gated(k) && self.flank_on(slot_flank(k))
+    }
+
+    /// Whether any pair carries force, and whether a backward one does (fixed between events).
+    pub fn contact_modes(&self) -> (bool, bool) {
+        let any = (0..SLOTS).any(|k| self.carrying(k));
+        let backward = (0..SLOTS).any(|k| slot_flank(k) == Flank::Backward && self.carrying(k));
+        (any, backward)
+    }
+
+    /// Total normal force of the carrying pairs at y (F_fwd + F_bwd).
+    pub fn normal_force(&self, y: &State) -> Result<f64, LawOutOfRange> {
+        let (pairs, _) = self.pair_forces(y)?;
+        Ok((0..SLOTS)
+            .filter(|&k| self.carrying(k))
+            .map(|k| pairs[k].0)
+            .sum())
     }
 
     /// The rigid contact's locked flank, if any.

@@ -7,6 +7,7 @@ pub mod johnson;
 pub mod mesh;
 pub mod rig;
 pub mod rigid;
+pub mod statistics;
 
 pub use mesh::{ContactModel, Loads, Mesh, State, NY};
 

@@ -881,3 +881,38 @@ def test_a_masters_default_tolerance_cannot_loosen_rel_tol(fmu_path, model_descr
         np.testing.assert_array_equal(fmpy_default[name], loose_master[name], err_msg=name)
     # A tighter tolerance takes more internal steps.
     assert tight_master["n_steps"][-1] > fmpy_default["n_steps"][-1]
+
+
+# ---- statistics inside the FMU (issue 11, point 1) -----------------------------------------------
+
+STATS = ["dte_mean", "dte_rms", "dte_min", "dte_max", "F_max", "t_separated", "t_backward"]
+
+
+def test_statistics_do_not_depend_on_the_communication_step(fmu_path):
+    """The undamped paper rig rattles after ~0.03 s. Through FMPy, one communication step of
+    0.1 s and 1000 of 1e-4 s give the same statistics (they are committed at internal steps and
+    events only, tests/statistics.rs), and they are consistent: min <= mean <= max,
+    rms >= |mean|, time separated inside the window."""
+    from fmpy import simulate_fmu
+
+    start = {"tau_A": 100.0, "c_load": 2.0, "chi": 0.0, "w_A_start": 100.0,
+             "w_B_start": 100.0 / 1.5, "statistics": True, "stats_start": 0.02}
+    runs = [simulate_fmu(str(fmu_path), stop_time=0.1, output_interval=dt, output=STATS + ["rAb"],
+                         start_values=start) for dt in (0.1, 1e-4)]
+    long, short = (r[-1] for r in runs)
+    for name in STATS:
+        assert long[name] == short[name], name
+    assert long["dte_min"] <= long["dte_mean"] <= long["dte_max"]
+    assert long["dte_rms"] >= abs(long["dte_mean"])
+    assert 0.0 < long["t_separated"] <= 0.1 - 0.02
+    # The rattling mesh's impacts exceed the static force tau_A / rAb.
+    assert long["F_max"] > 100.0 / long["rAb"]
+
+
+def test_statistics_are_off_by_default(fmu_path):
+    from fmpy import simulate_fmu
+
+    r = simulate_fmu(str(fmu_path), stop_time=0.01, output_interval=1e-3, output=STATS,
+                     start_values={"tau_A": 100.0, "c_load": 2.0})
+    for name in STATS:
+        assert (r[name] == 0.0).all(), name
