@@ -55,6 +55,7 @@ fn rigid_forward_lock_matches_the_closed_form() {
             ..p.clone()
         };
         let out = run(&p, &i, 1e-12, 1e-3, 0.1);
+        let atol_dte = Simulation::new(&p, &i, 0.0, 1e-12).unwrap().driver.tol.atol[1];
         let bound = if solver == 1 { 1e-12 } else { 1e-9 };
         for (t, o) in &out {
             let w_a = w_inf + (p.w_A_start - w_inf) * (-rate * t).exp();
@@ -72,7 +73,14 @@ fn rigid_forward_lock_matches_the_closed_form() {
                 "t {t}: F_fwd {} vs {force}",
                 o.F_fwd
             );
-            assert_eq!(o.dte, 0.0, "locked: the penetration is held exactly");
+            // Dormand-Prince keeps the locked penetration exactly (its rate is exactly 0).
+            // diffsol's BDF rounds it in its Newton solve and interpolation; the error control
+            // bounds it by the absolute tolerance of dte.
+            if solver == 1 {
+                assert_eq!(o.dte, 0.0, "locked: the penetration is held exactly");
+            } else {
+                assert!(o.dte.abs() <= atol_dte, "t {t}: dte {}", o.dte);
+            }
             assert!(o.n_fwd >= 1 && o.F_bwd == 0.0);
             // The gated pairs share the force equally (the paper's §6.3 convention).
             if o.n_fwd == 2 {

@@ -383,6 +383,9 @@ pub struct Driver {
     pub max_step: f64,
     /// `System::observe` has seen the dense output up to this time.
     pub observed: f64,
+    /// Events of the current step are searched from here: its start, or the last event after
+    /// which the step continued (`EventReport::smooth`).
+    pub search_from: f64,
 }
 
 impl Clone for Driver {
@@ -417,6 +420,7 @@ impl Clone for Driver {
             },
             max_step: self.max_step,
             observed: self.observed,
+            search_from: self.search_from,
         }
     }
 }
@@ -437,6 +441,7 @@ impl Driver {
             start: MarginCache::default(),
             max_step: f64::INFINITY,
             observed: t0,
+            search_from: t0,
         }
     }
 
@@ -501,13 +506,22 @@ impl Driver {
                 }
                 self.pending = None;
                 self.observe_to(sys, ev.t)?;
-                let mut y = self.method.interpolate(ev.t);
+                let y_event = self.method.interpolate(ev.t);
+                let mut y = y_event;
                 let report = sys
                     .handle_event(ev.index, &mut y)
                     .map_err(|err| DriverError::Law { t: ev.t, err })?;
                 self.stats.events += 1;
                 log(ev.t, &report);
                 self.t = ev.t;
+                if report.smooth && y == y_event {
+                    // The step is still a step of the same right-hand side: search the rest of
+                    // it for the next event under the new modes.
+                    self.search_from = ev.t;
+                    self.start = MarginCache::default();
+                    self.locate_and_check(sys)?;
+                    continue;
+                }
                 let h = self.method.h();
                 self.restart(sys, ev.t, &y, Some(h))?;
                 continue;
@@ -537,16 +551,22 @@ impl Driver {
             self.method
                 .step(sys, h_max, &self.tol, &mut self.stats)
                 .map_err(|e| self.step_error(e))?;
-            self.pending = self.locate(sys);
-            // A step may overshoot past an event into states the modes before it never reach:
-            // the limits hold up to the first event.
-            let (t, y) = match self.pending {
-                Some(e) => (e.t, self.method.interpolate(e.t)),
-                None => (self.method.t(), *self.method.y()),
-            };
-            sys.check_state(&y)
-                .map_err(|err| DriverError::Law { t, err })?;
+            self.search_from = self.method.t_prev();
+            self.locate_and_check(sys)?;
         }
+    }
+
+    /// Finds the first event from `search_from` in the last step, and checks the state there.
+    fn locate_and_check<S: System>(&mut self, sys: &S) -> Result<(), DriverError> {
+        self.pending = self.locate(sys);
+        // A step may overshoot past an event into states the modes before it never reach:
+        // the limits hold up to the first event.
+        let (t, y) = match self.pending {
+            Some(e) => (e.t, self.method.interpolate(e.t)),
+            None => (self.method.t(), *self.method.y()),
+        };
+        sys.check_state(&y)
+            .map_err(|err| DriverError::Law { t, err })
     }
 
     fn restart<S: System + Clone + 'static>(
@@ -562,6 +582,7 @@ impl Driver {
         self.needs_restart = false;
         self.pending = None;
         self.observed = t;
+        self.search_from = t;
         self.y_start = *y;
         self.step_limit = f64::NAN;
         self.start = MarginCache::default();
@@ -587,7 +608,7 @@ impl Driver {
     /// step on its rate. So a margin that dips below zero and comes back inside one step (a
     /// graze) is found. The first sample below zero brackets the root.
     fn locate<S: System>(&mut self, sys: &S) -> Option<PendingEvent> {
-        let (t0, t1) = (self.method.t_prev(), self.method.t());
+        let (t0, t1) = (self.search_from, self.method.t());
         let (h, tm) = (t1 - t0, 0.5 * (t0 + t1));
         let mut end = [0.0; N_EVENTS];
         let mut end_rate = [0.0; N_EVENTS];

@@ -119,6 +119,7 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
     w.fs(&d.y_start);
     w.f(d.step_limit);
     w.f(d.observed);
+    w.f(d.search_from);
     // The event margins at the step's start: a recomputation would round differently.
     let start = d.start.get();
     w.b(start.is_some());
@@ -154,7 +155,15 @@ fn check_values(s: &Simulation) -> Result<(), String> {
         Method::Dopri5(x) => (x.t, x.t_prev, x.h, x.y),
         Method::Bdf(x) => (x.t, x.t_prev, x.h, x.y),
     };
-    let mut values = vec![d.t, d.observed, t, t_prev, m.e_gate, m.e_start];
+    let mut values = vec![
+        d.t,
+        d.observed,
+        d.search_from,
+        t,
+        t_prev,
+        m.e_gate,
+        m.e_start,
+    ];
     if let Some(st) = &m.stats {
         // dte_min and dte_max are infinite until the statistics start.
         values.extend_from_slice(&[st.duration, st.int_dte, st.int_dte2, st.f_max]);
@@ -261,6 +270,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     d.y_start = r.fs::<NY>()?;
     d.step_limit = r.f()?;
     d.observed = r.f()?;
+    d.search_from = r.f()?;
     let (has_start, t, m, rates) = (r.b()?, r.f()?, r.fs()?, r.fs()?);
     d.start = MarginCache::new(has_start.then_some((t, m, rates)));
     d.method = match r.u()? {

@@ -197,6 +197,9 @@ pub struct Readout {
 #[derive(Clone, Debug)]
 pub struct EventReport {
     pub what: String,
+    /// The event left the right-hand side as it was (only bookkeeping changed): the
+    /// integrator's step stays valid and continues past it without a restart.
+    pub smooth: bool,
 }
 
 impl Mesh {
@@ -954,6 +957,7 @@ impl Mesh {
     /// rigid impact changes the speeds in y.
     pub fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange> {
         let before = self.elastic_energy(y)?;
+        let motion_before = self.rigid_motion_modes();
         let e = EventFn::from_index(i);
         let span = self.geo.m_c as f64 * self.geo.p_b;
         let mut what = match e {
@@ -1012,7 +1016,25 @@ impl Mesh {
         }
         self.n_events += 1;
         self.e_gate += self.elastic_energy(y)? - before;
-        Ok(EventReport { what })
+        let smooth = motion_before.is_some() && motion_before == self.rigid_motion_modes();
+        Ok(EventReport { what, smooth })
+    }
+
+    /// What a rigid mesh's right-hand side depends on besides the state: the locked flank, and
+    /// on it which pairs are gated (their friction arms; without friction only that one is, as
+    /// the equal split does not enter the motion). A pair switch that keeps them is only
+    /// bookkeeping. (The compliant mesh's free-flight switches are such too; they still restart
+    /// so that today's compliant scenes keep their step sequences.)
+    fn rigid_motion_modes(&self) -> Option<(Option<Flank>, [bool; SLOTS])> {
+        if !self.rigid() {
+            return None;
+        }
+        let locked = self.locked();
+        let gated: [bool; SLOTS] = std::array::from_fn(|k| {
+            locked == Some(slot_flank(k)) && self.gated(k) && self.loads.mu > 0.0
+        });
+        let any = locked.is_some_and(|f| (0..SLOTS).any(|k| slot_flank(k) == f && self.gated(k)));
+        Some((locked.filter(|_| any), gated))
     }
 
     /// A master changed inputs or tunable parameters: the right-hand side changes from here on.
