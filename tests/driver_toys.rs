@@ -88,6 +88,7 @@ impl System for Toy {
             y[1] = -e * y[1];
         }
         Ok(EventReport {
+            smooth: false,
             what: if i == 0 { "floor" } else { "ceiling" }.into(),
         })
     }
