@@ -447,7 +447,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         writeln!(w, "impl {st} {{").unwrap();
         for (ty, rty) in [("Real", "f64"), ("Integer", "i32"), ("Boolean", "bool")] {
             let lower = ty.to_ascii_lowercase();
-            writeln!(w, "    #[allow(unreachable_patterns)]\n    pub fn get_{lower}(&self, v: Var) -> Option<{rty}> {{\n        match v {{").unwrap();
+            writeln!(w, "    #[allow(unreachable_patterns)]\n    #[inline]\n    pub fn get_{lower}(&self, v: Var) -> Option<{rty}> {{\n        match v {{").unwrap();
             for f in fields.iter().filter(|f| f.ty == ty) {
                 writeln!(w, "            Var::{n} => Some(self.{n}),", n = f.name).unwrap();
             }

@@ -391,6 +391,9 @@ pub struct Driver {
 impl Clone for Driver {
     /// A Dormand-Prince driver clones exactly. diffsol's solver cannot be cloned, so a BDF driver
     /// clones into a restart point at its current state (see `Simulation::make_restart_point_if_needed`).
+    /// Inlined into the caller's slot: `fmi2DoStep` copies the simulation before every step
+    /// that integrates (to undo a failed one), and a call here added a second copy.
+    #[inline(always)]
     fn clone(&self) -> Self {
         let restart_point = matches!(self.method, Method::Bdf(_)) && !self.needs_restart;
         Driver {

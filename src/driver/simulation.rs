@@ -64,9 +64,10 @@ impl System for Mesh {
         Mesh::dim(self)
     }
     fn observe(&mut self, t0: f64, t1: f64, y: &dyn Fn(f64) -> State) -> Result<(), LawOutOfRange> {
-        let Some(mut s) = self.stats.take() else {
+        if self.stats.is_none() {
             return Ok(());
-        };
+        }
+        let mut s = self.stats.take().expect("checked");
         let r = s.add(self, t0, t1, y);
         self.stats = Some(s);
         r
@@ -83,15 +84,26 @@ impl Clone for Simulation {
     /// A BDF driver clones into a restart point at the current time (see `Driver::clone`), so
     /// the clone takes the statistics up to that time with it.
     fn clone(&self) -> Self {
-        let mut c = Simulation {
+        let d = &self.driver;
+        let restart_point = matches!(d.method, Method::Bdf(_)) && !d.needs_restart;
+        if restart_point && self.mesh.stats.is_some() && d.t > d.observed {
+            return self.clone_with_statistics_to_now();
+        }
+        Simulation {
             mesh: self.mesh.clone(),
             driver: self.driver.clone(),
-        };
-        if c.driver.needs_restart && c.driver.observed < c.driver.t {
-            c.mesh.stats = self.statistics();
-            c.driver.observed = c.driver.t;
         }
-        c
+    }
+}
+
+impl Simulation {
+    #[cold]
+    fn clone_with_statistics_to_now(&self) -> Simulation {
+        let mut mesh = self.mesh.clone();
+        mesh.stats = self.statistics();
+        let mut driver = self.driver.clone();
+        driver.observed = driver.t;
+        Simulation { mesh, driver }
     }
 }
 

@@ -30,52 +30,52 @@ pub fn write(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
 }
 
 /// The outputs of a readout, with the run's statistics and the integrator's counters.
+#[inline]
 pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
-    *o = Outputs {
-        theta_A: r.theta_a,
-        theta_B: r.theta_b,
-        w_A: r.w_a,
-        w_B: r.w_b,
-        dte: r.dte,
-        F_f1: r.pair_force[0],
-        F_f2: r.pair_force[1],
-        F_b1: r.pair_force[2],
-        F_b2: r.pair_force[3],
-        F_fwd: r.flank_force[0],
-        F_bwd: r.flank_force[1],
-        n_fwd: r.flank_pairs[0] as i32,
-        n_bwd: r.flank_pairs[1] as i32,
-        tau_mesh_A: r.tq_a,
-        tau_mesh_B: r.tq_b,
-        P_loss: r.p_loss,
-        s_f1: r.contact_point[0],
-        s_f2: r.contact_point[1],
-        s_b1: r.contact_point[2],
-        s_b2: r.contact_point[3],
-        E_kin: r.e_kin,
-        E_el: r.e_el,
-        W_ext: r.w_ext,
-        W_loss: r.w_loss,
-        E_gate: r.e_gate,
-        energy_residual: r.energy_residual,
-        n_events: saturate(r.n_events),
-        n_impacts: saturate(r.n_impacts),
-        x_slider: r.x_slider,
-        F_B_x: r.force_on_b[0],
-        F_B_y: r.force_on_b[1],
-        dte_mean: run.dte_mean,
-        dte_rms: run.dte_rms,
-        dte_min: run.dte_min,
-        dte_max: run.dte_max,
-        F_max: run.f_max,
-        t_separated: run.t_separated,
-        t_backward: run.t_backward,
-        n_steps: saturate(st.steps),
-        n_rejected_steps: saturate(st.rejected),
-        n_rhs_evaluations: saturate(st.rhs_evals),
-        n_jacobians: saturate(st.jac_evals),
-        n_factorizations: saturate(st.factorizations),
-    };
+    // Field by field: a struct literal here was built aside and copied.
+    o.theta_A = r.theta_a;
+    o.theta_B = r.theta_b;
+    o.w_A = r.w_a;
+    o.w_B = r.w_b;
+    o.dte = r.dte;
+    o.F_f1 = r.pair_force[0];
+    o.F_f2 = r.pair_force[1];
+    o.F_b1 = r.pair_force[2];
+    o.F_b2 = r.pair_force[3];
+    o.F_fwd = r.flank_force[0];
+    o.F_bwd = r.flank_force[1];
+    o.n_fwd = r.flank_pairs[0] as i32;
+    o.n_bwd = r.flank_pairs[1] as i32;
+    o.tau_mesh_A = r.tq_a;
+    o.tau_mesh_B = r.tq_b;
+    o.P_loss = r.p_loss;
+    o.s_f1 = r.contact_point[0];
+    o.s_f2 = r.contact_point[1];
+    o.s_b1 = r.contact_point[2];
+    o.s_b2 = r.contact_point[3];
+    o.E_kin = r.e_kin;
+    o.E_el = r.e_el;
+    o.W_ext = r.w_ext;
+    o.W_loss = r.w_loss;
+    o.E_gate = r.e_gate;
+    o.energy_residual = r.energy_residual;
+    o.n_events = saturate(r.n_events);
+    o.n_impacts = saturate(r.n_impacts);
+    o.x_slider = r.x_slider;
+    o.F_B_x = r.force_on_b[0];
+    o.F_B_y = r.force_on_b[1];
+    o.dte_mean = run.dte_mean;
+    o.dte_rms = run.dte_rms;
+    o.dte_min = run.dte_min;
+    o.dte_max = run.dte_max;
+    o.F_max = run.f_max;
+    o.t_separated = run.t_separated;
+    o.t_backward = run.t_backward;
+    o.n_steps = saturate(st.steps);
+    o.n_rejected_steps = saturate(st.rejected);
+    o.n_rhs_evaluations = saturate(st.rhs_evals);
+    o.n_jacobians = saturate(st.jac_evals);
+    o.n_factorizations = saturate(st.factorizations);
 }
 
 /// The calculated parameters: the pair's geometry.

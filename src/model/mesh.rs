@@ -1142,6 +1142,7 @@ impl Mesh {
     }
 
     /// What the mesh shows at state y (the FMI layer maps it onto its outputs).
+    #[inline]
     pub fn readout(&self, y: &State) -> Result<Readout, LawOutOfRange> {
         let g = &self.geo;
         let mut s = [0.0; SLOTS];
