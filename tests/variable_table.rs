@@ -187,3 +187,54 @@ fn interface_names_exist() {
         assert!(calc.contains(&c), "calculated parameter {c}");
     }
 }
+
+/// The parameters' ranges are the table's (issue 12, point 4): just outside a bound the
+/// parameter set is refused with a message naming the parameter, on the bound itself it is
+/// refused only when the bound is exclusive. Geometry parameters are checked with their own
+/// geometry front end (`geometry` = their table entry's).
+#[test]
+fn parameter_ranges_come_from_the_table() {
+    use spur_gear_mesh::model::geometry::validate;
+    use spur_gear_mesh::variables::Params;
+    let mut checked = 0;
+    for info in VARIABLES
+        .iter()
+        .filter(|v| v.causality == Causality::Parameter)
+    {
+        let r = info.range;
+        let base = Params {
+            geometry: info.geometry.unwrap_or(1),
+            ..Params::default()
+        };
+        for (bound, exclusive, outward) in [
+            (r.min, r.exclusive_min, -1.0),
+            (r.max, r.exclusive_max, 1.0),
+        ] {
+            let Some(b) = bound else { continue };
+            // Outside: a unit past an integer bound, a relative step past a real one.
+            let (outside, on) = match info.ty {
+                VarType::Integer => (b + outward, b),
+                _ => (b + outward * (1e-3 * b.abs()).max(1e-3), b),
+            };
+            for (x, must_fail) in [(outside, true), (on, exclusive)] {
+                let mut p = base.clone();
+                let set = match info.ty {
+                    VarType::Integer => p.set_integer(info.var, x as i32),
+                    _ => p.set_real(info.var, x),
+                };
+                assert!(set, "{}", info.name);
+                match validate(&p) {
+                    Err(e) => assert!(
+                        must_fail && e.message.contains(info.name),
+                        "{} = {x}: {}",
+                        info.name,
+                        e.message
+                    ),
+                    Ok(()) => assert!(!must_fail, "{} = {x} was accepted", info.name),
+                }
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 25, "{checked} bounds");
+}

@@ -61,6 +61,13 @@ pub struct Var {
     pub display_unit: Option<String>,
     pub min: Option<f64>,
     pub max: Option<f64>,
+    /// The value must differ from min / max too (FMI's bounds are inclusive; the XML shows them).
+    #[serde(default)]
+    pub exclusive_min: bool,
+    #[serde(default)]
+    pub exclusive_max: bool,
+    /// A parameter of one geometry front end only: its range is checked when that one is used.
+    pub geometry: Option<i32>,
     pub description: String,
 }
 
@@ -135,6 +142,11 @@ fn check(t: &Table) {
                 v.name
             );
         }
+        assert!(
+            (!v.exclusive_min || v.min.is_some()) && (!v.exclusive_max || v.max.is_some()),
+            "variable {}: an exclusive bound needs the bound",
+            v.name
+        );
     }
 }
 
@@ -340,7 +352,8 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum VarType {{ Real, Integer, Boolean }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Causality {{ Parameter, CalculatedParameter, Input, Output }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Variability {{ Fixed, Tunable, Continuous, Discrete }}").unwrap();
-    writeln!(w, "#[derive(Clone, Copy, Debug)]\npub struct VarInfo {{ pub var: Var, pub name: &'static str, pub vr: u32, pub ty: VarType, pub causality: Causality, pub variability: Variability, pub unit: Option<&'static str> }}").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug)]\npub struct VarInfo {{ pub var: Var, pub name: &'static str, pub vr: u32, pub ty: VarType, pub causality: Causality, pub variability: Variability, pub unit: Option<&'static str>, pub range: Range, pub geometry: Option<i32>, pub description: &'static str }}").unwrap();
+    writeln!(w, "/// A variable's bounds from the table (None: unbounded), each inclusive unless marked.\n#[derive(Clone, Copy, Debug)]\npub struct Range {{ pub min: Option<f64>, pub max: Option<f64>, pub exclusive_min: bool, pub exclusive_max: bool }}").unwrap();
 
     let camel = |x: &str| -> String {
         let mut c = x.chars();
@@ -357,13 +370,19 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         };
         writeln!(
             w,
-            "    VarInfo {{ var: Var::{n}, name: {n:?}, vr: {vr}, ty: VarType::{ty}, causality: Causality::{c}, variability: Variability::{va}, unit: {u:?} }},",
+            "    VarInfo {{ var: Var::{n}, name: {n:?}, vr: {vr}, ty: VarType::{ty}, causality: Causality::{c}, variability: Variability::{va}, unit: {u:?}, range: Range {{ min: {min}, max: {max}, exclusive_min: {emin}, exclusive_max: {emax} }}, geometry: {g:?}, description: {d:?} }},",
             n = v.name,
             vr = v.vr,
             ty = v.ty,
             c = causality,
             va = camel(&v.variability),
             u = v.unit.as_deref(),
+            min = v.min.map_or("None".into(), |x| format!("Some({x:?})")),
+            max = v.max.map_or("None".into(), |x| format!("Some({x:?})")),
+            emin = v.exclusive_min,
+            emax = v.exclusive_max,
+            g = v.geometry,
+            d = v.description,
         )
         .unwrap();
     }

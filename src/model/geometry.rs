@@ -2,7 +2,7 @@
 //! Two front ends, the paper's and standard gear data, give the same `Geometry`.
 
 use super::ModelError;
-use crate::variables::Params;
+use crate::variables::{Causality, Params, VarType, VARIABLES};
 use std::f64::consts::PI;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -70,91 +70,33 @@ fn err(var: &str, value: impl std::fmt::Display, why: &str) -> ModelError {
 /// Checks every parameter on its own; `Geometry::new` then checks how they fit together.
 pub fn validate(p: &Params) -> Result<(), ModelError> {
     // Every Real parameter is finite, used by the chosen geometry or not: none may reach a master.
-    for info in crate::variables::VARIABLES {
+    for info in VARIABLES {
         if let Some(x) = p.get_real(info.var).filter(|x| !x.is_finite()) {
             return Err(err(info.name, x, "must be finite"));
         }
     }
-    let positive = [
-        ("width", p.width),
-        ("E_A", p.E_A),
-        ("E_B", p.E_B),
-        ("J_A", p.J_A),
-        ("J_B", p.J_B),
-        ("v_reg", p.v_reg),
-    ];
-    for (name, v) in positive {
-        if !(v > 0.0 && v.is_finite()) {
-            return Err(err(name, v, "must be positive and finite"));
+    // The ranges of the variable table (modelDescription/variables.toml); a geometry front
+    // end's own parameters only when it is the one used.
+    for info in VARIABLES
+        .iter()
+        .filter(|v| v.causality == Causality::Parameter)
+        .filter(|v| v.geometry.is_none_or(|g| g == p.geometry))
+    {
+        let (x, shown) = match (p.get_real(info.var), p.get_integer(info.var)) {
+            (Some(x), _) => (x, x.to_string()),
+            (None, Some(i)) => (i as f64, i.to_string()),
+            _ => continue,
+        };
+        if let Some(why) = info.range.violation(x) {
+            let what = if info.ty == VarType::Integer {
+                format!("{why} ({})", info.description)
+            } else {
+                why
+            };
+            return Err(err(info.name, shown, &what));
         }
-    }
-    let non_negative = [
-        ("backlash", p.backlash),
-        ("chi", p.chi),
-        ("mu", p.mu),
-        ("c_load", p.c_load),
-        ("slider_stiffness", p.slider_stiffness),
-        ("slider_damping", p.slider_damping),
-    ];
-    for (name, v) in non_negative {
-        if !(v >= 0.0 && v.is_finite()) {
-            return Err(err(name, v, "must be zero or positive and finite"));
-        }
-    }
-    for (name, v) in [("nu_A", p.nu_A), ("nu_B", p.nu_B)] {
-        if !(v > -1.0 && v < 0.5) {
-            return Err(err(name, v, "a Poisson ratio must lie in (-1, 0.5)"));
-        }
-    }
-    for (name, v) in [
-        ("w_A_start", p.w_A_start),
-        ("w_B_start", p.w_B_start),
-        ("dte_start", p.dte_start),
-    ] {
-        if !v.is_finite() {
-            return Err(err(name, v, "must be finite"));
-        }
-    }
-    if !(p.rel_tol >= 1e-14 && p.rel_tol <= 0.1) {
-        return Err(err("rel_tol", p.rel_tol, "must lie in [1e-14, 0.1]"));
-    }
-    if !(1..=2).contains(&p.solver) {
-        return Err(err(
-            "solver",
-            p.solver,
-            "must be 1 (explicit Dormand-Prince) or 2 (implicit BDF)",
-        ));
-    }
-    if !(0..=2).contains(&p.contacts_per_flank) {
-        return Err(err(
-            "contacts_per_flank",
-            p.contacts_per_flank,
-            "must be 0 (automatic), 1 or 2",
-        ));
-    }
-    if !(1..=2).contains(&p.contact_model) {
-        return Err(err(
-            "contact_model",
-            p.contact_model,
-            "must be 1 (Johnson compliance) or 2 (rigid); 3 (tooth structure) is not available yet",
-        ));
-    }
-    if !(0.0..=1.0).contains(&p.restitution) {
-        return Err(err("restitution", p.restitution, "must lie in [0, 1]"));
     }
     crate::model::rig::Slider::from_params(p)?;
-    if !(p.slider_mass >= 0.0) {
-        return Err(err(
-            "slider_mass",
-            p.slider_mass,
-            "must be zero or positive and finite",
-        ));
-    }
-    for (name, z) in [("zA", p.zA), ("zB", p.zB)] {
-        if z < 3 {
-            return Err(err(name, z, "a wheel needs at least 3 teeth"));
-        }
-    }
     Ok(())
 }
 
@@ -287,28 +229,18 @@ impl Geometry {
     }
 
     fn paper(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
-        if p.zA_nominal < 3 || p.zB_nominal < 3 {
-            return Err(err(
-                "zA_nominal",
-                p.zA_nominal,
-                "nominal tooth counts must be at least 3",
-            ));
-        }
         if p.zA as i64 * p.zB_nominal as i64 != p.zB as i64 * p.zA_nominal as i64 {
             return Err(ModelError::new(format!(
                 "tooth ratio zB/zA = {}/{} differs from the nominal ratio zB_nominal/zA_nominal = {}/{}",
                 p.zB, p.zA, p.zB_nominal, p.zA_nominal
             )));
         }
-        if !(p.rA > 0.0 && p.rA.is_finite()) {
-            return Err(err("rA", p.rA, "must be positive and finite"));
-        }
         let n = p.zB_nominal as f64 / p.zA_nominal as f64;
         let (r_a, r_b) = (p.rA, n * p.rA);
         let d = r_a + r_b;
         let alpha_inf = (2.0 * PI / (p.zA_nominal as f64 * (1.0 + n))).atan();
         let alpha_w = p.alpha_factor * alpha_inf;
-        if !(p.alpha_factor > 1.0) || alpha_w >= PI / 2.0 {
+        if alpha_w >= PI / 2.0 {
             return Err(err(
                 "alpha_factor",
                 p.alpha_factor,
@@ -342,22 +274,8 @@ impl Geometry {
     }
 
     fn standard(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
-        let m = p.module;
-        if !(m > 0.0 && m.is_finite()) {
-            return Err(err("module", m, "must be positive and finite"));
-        }
-        let a0 = p.pressure_angle;
-        if !(a0 > 0.0 && a0 < PI / 2.0) {
-            return Err(err("pressure_angle", a0, "must lie in (0, pi/2) rad"));
-        }
-        if !(p.addendum >= 0.0 && p.addendum.is_finite()) {
-            return Err(err("addendum", p.addendum, "must be zero or positive"));
-        }
-        for (name, x) in [("xA", p.xA), ("xB", p.xB)] {
-            if !x.is_finite() {
-                return Err(err(name, x, "must be finite"));
-            }
-        }
+        // Ranges: `validate` (the variable table).
+        let (m, a0) = (p.module, p.pressure_angle);
         let (za, zb) = (p.zA as f64, p.zB as f64);
         let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xA + p.xB) / (za + zb);
         let alpha_w = inv_inverse(inv_w).ok_or_else(|| {
