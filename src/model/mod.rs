@@ -8,6 +8,7 @@ pub mod mesh;
 pub mod rig;
 pub mod rigid;
 pub mod statistics;
+pub mod tooth_structure;
 
 pub use mesh::{ContactModel, Loads, Mesh, State, NY};
 
