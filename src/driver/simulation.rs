@@ -44,7 +44,7 @@ impl System for Mesh {
     fn max_step(&self, y: &State, explicit: bool) -> f64 {
         let speed = self.geo.r_ab * y[crate::model::mesh::W_A].abs();
         let pitches = match self.law {
-            crate::model::ContactModel::Johnson => 0.25,
+            crate::model::ContactModel::Compliant(_) => 0.25,
             crate::model::ContactModel::Rigid { .. } => 1.0,
         };
         let travel = if speed > 0.0 {

@@ -14,10 +14,12 @@
 
 use super::contact::{self, slot_flank, EventFn, Flank, N_EVENTS, SLOTS, SLOT_NAMES};
 use super::geometry::Geometry;
-use super::johnson::{self, OutOfRange};
+use super::johnson::OutOfRange;
+use super::law::{ContactLaw, JohnsonLaw, Law};
 use super::rig::{self, Slider};
 use super::rigid::{self, Impact};
 use super::statistics::Statistics;
+use super::tooth_structure::structure_law;
 use super::ModelError;
 use crate::variables::{Inputs, Params};
 
@@ -48,7 +50,6 @@ pub struct LawOutOfRange {
 }
 
 /// The Johnson law's own range (spec §4).
-pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
 /// Beyond the segment length no pair can be gated (s_A - delta >= s_a and s_A <= s_b): the teeth
 /// would pass through each other and the mesh would carry nothing.
 pub const SEGMENT_LIMIT: &str =
@@ -95,10 +96,11 @@ impl Loads {
 }
 
 /// The contact law (`contact_model`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum ContactModel {
-    /// Johnson's line-contact compliance with Hunt-Crossley damping (the paper's mesh).
-    Johnson,
+    /// A compliant law with Hunt-Crossley damping: Johnson's line contact (the paper's mesh) or
+    /// the tooth structure with Weber's local contact (contact model 3).
+    Compliant(Law),
     /// A unilateral constraint with Newton impacts. `two_sided`: zero backlash and no slider,
     /// so both flanks touch at once and N may take either sign.
     Rigid { restitution: f64, two_sided: bool },
@@ -112,6 +114,9 @@ pub struct MeshLoad {
     /// x component (paper frame) of the force on B; computed only where a slider needs it.
     pub f_bx: f64,
     pub p_loss: f64,
+    /// Power of a position-dependent stiffness on the pairs' elastic energy (`ContactLaw::
+    /// energy_slope`), booked with the external work.
+    pub p_param: f64,
 }
 
 impl MeshLoad {
@@ -121,6 +126,7 @@ impl MeshLoad {
             tq_b: n * self.tq_b,
             f_bx: n * self.f_bx,
             p_loss: n * self.p_loss,
+            p_param: n * self.p_param,
         }
     }
 }
@@ -208,7 +214,6 @@ impl Mesh {
     pub fn new(p: &Params, inputs: &Inputs) -> Result<(Mesh, State), ModelError> {
         let geo = Geometry::new(p)?;
         let slider = Slider::from_params(p)?;
-        // validate() (through Geometry::new) admits contact_model 1 and 2 only.
         let law = if p.contact_model == 2 {
             if !(p.dte_start >= -p.backlash && p.dte_start <= 0.0) {
                 return Err(ModelError::new(format!(
@@ -220,8 +225,20 @@ impl Mesh {
                 restitution: p.restitution,
                 two_sided: p.backlash == 0.0 && slider.is_none() && p.backward_contacts,
             }
+        } else if p.contact_model == 3 {
+            if p.geometry != 2 {
+                return Err(ModelError::new(format!(
+                    "parameter contact_model = 3: the tooth structure needs the standard geometry (geometry = 2, not {})",
+                    p.geometry
+                )));
+            }
+            ContactModel::Compliant(Law::Structure(Box::new(structure_law(p, &geo)?)))
         } else {
-            ContactModel::Johnson
+            ContactModel::Compliant(Law::Johnson(JohnsonLaw {
+                l: geo.l,
+                e_star: geo.e_star,
+                width: p.width,
+            }))
         };
         let theta_a = p.dte_start / geo.r_ab;
         let (geo_r_ab, geo_r_bb) = (geo.r_ab, geo.r_bb);
@@ -376,10 +393,25 @@ impl Mesh {
             .find(|&f| self.flank_present(f) && self.sign[EventFn::Pen(f).index()])
     }
 
-    /// Normal force of one pair on a carrying flank: width N(delta)(1 + chi d(delta)/dt).
-    fn pair_force(&self, delta: f64, ddelta: f64) -> Result<(f64, f64), OutOfRange> {
-        let n = johnson::force(delta, self.geo.l + delta, self.geo.e_star)?;
-        Ok((n, self.width * n * (1.0 + self.loads.chi * ddelta)))
+    /// The compliant law (none with rigid contact).
+    fn compliance(&self) -> Option<&dyn ContactLaw> {
+        match &self.law {
+            ContactModel::Compliant(l) => Some(l.get()),
+            ContactModel::Rigid { .. } => None,
+        }
+    }
+
+    /// Elastic force of one pair on a carrying flank, and with damping N(delta)(1 + chi
+    /// d(delta)/dt).
+    fn pair_force(
+        &self,
+        law: &dyn ContactLaw,
+        delta: f64,
+        ddelta: f64,
+        s_a: f64,
+    ) -> Result<(f64, f64), OutOfRange> {
+        let n = law.force(delta, s_a)?;
+        Ok((n, n * (1.0 + self.loads.chi * ddelta)))
     }
 
     /// Friction force per unit normal force of a pair, and its sliding velocity (spec §4).
@@ -400,13 +432,15 @@ impl Mesh {
         Ok(())
     }
 
-    /// The Johnson mesh's load; `pairs` also receives each slot's normal and friction force.
+    /// The compliant mesh's load; `pairs` also receives each slot's normal and friction force.
     fn compliant_load(
         &self,
         y: &State,
         mut pairs: Option<&mut [(f64, f64); SLOTS]>,
     ) -> Result<MeshLoad, LawOutOfRange> {
         let g = &self.geo;
+        let law = self.compliance().expect("compliant");
+        let per_pair = law.depends_on_position();
         let (w_a, w_b) = (y[W_A], self.w_b(y));
         let mut m = MeshLoad::default();
         let slider = self.slider.is_some();
@@ -416,24 +450,32 @@ impl Mesh {
             }
             let slots = if f == Flank::Forward { 0..2 } else { 2..4 };
             let mut gated = slots.filter(|&k| self.gated(k)).peekable();
-            if gated.peek().is_none() {
+            let Some(&first) = gated.peek() else {
                 continue;
-            }
+            };
             let (delta, ddelta) = self.flank_delta(f, y);
-            let (n, fn_) = self
-                .pair_force(delta, ddelta)
-                .map_err(|e| self.out_of_range(f, e))?;
             let dir = f.dir();
+            // One evaluation serves every pair of the flank unless the law depends on position.
+            let mut forces = self
+                .pair_force(law, delta, ddelta, self.s_contact(first, y))
+                .map_err(|e| self.out_of_range(f, e))?;
             for k in gated {
+                let s_a = self.s_contact(k, y);
+                if per_pair {
+                    forces = self
+                        .pair_force(law, delta, ddelta, s_a)
+                        .map_err(|e| self.out_of_range(f, e))?;
+                    m.p_param += law.energy_slope(forces.0, s_a) * dir * g.r_ab * w_a;
+                }
+                let (n, fn_) = forces;
                 // Normal force: the spec's paper-frame torques, turned into the interface frame.
                 m.tq_a -= dir * fn_ * g.r_ab;
                 m.tq_b += dir * fn_ * g.r_bb;
                 if self.loads.chi > 0.0 {
-                    m.p_loss += self.width * n * self.loads.chi * ddelta * ddelta;
+                    m.p_loss += n * self.loads.chi * ddelta * ddelta;
                 }
                 let mut ft = 0.0;
                 if self.loads.mu > 0.0 {
-                    let s_a = self.s_contact(k, y);
                     let s_b = g.l + delta - s_a;
                     let (mu_eff, v_s) = self.friction(s_a, s_b, w_a, w_b);
                     ft = mu_eff * fn_;
@@ -468,7 +510,7 @@ impl Mesh {
             tq_a: -dir * g.r_ab,
             tq_b: dir * g.r_bb,
             f_bx: self.sin_a,
-            p_loss: 0.0,
+            ..MeshLoad::default()
         };
         if self.loads.mu > 0.0 {
             let (w_a, w_b) = (y[W_A], self.w_b(y));
@@ -556,6 +598,9 @@ impl Mesh {
         }
         dy[W_EXT] = l.tau_a * w_a + l.tau_b * w_b - l.c_load * w_b * w_b
             + l.alpha_housing * (self.j_a * w_a - self.j_b * w_b);
+        if load.p_param != 0.0 {
+            dy[W_EXT] += load.p_param;
+        }
         dy[W_LOSS] = load.p_loss;
         dy[X_S] = 0.0;
         dy[V_S] = 0.0;
@@ -576,7 +621,7 @@ impl Mesh {
             contact: names.join("+"),
             delta: e.delta,
             limit: e.limit,
-            limit_name: JOHNSON_LIMIT,
+            limit_name: self.compliance().map_or("", |l| l.limit_name()),
         }
     }
 
@@ -1057,20 +1102,13 @@ impl Mesh {
 
     /// Tangent stiffness [N/m] of the carrying compliant contacts, summed.
     fn mesh_stiffness(&self, y: &State) -> f64 {
-        if self.rigid() {
+        let Some(law) = self.compliance() else {
             return 0.0;
-        }
+        };
         let mut k = 0.0;
-        for f in [Flank::Forward, Flank::Backward] {
-            let pairs = (0..SLOTS)
-                .filter(|&k| slot_flank(k) == f && self.carrying(k))
-                .count();
-            if pairs > 0 {
-                let (delta, _) = self.flank_delta(f, y);
-                let stiffness =
-                    johnson::stiffness(delta, self.geo.l + delta, self.geo.e_star).unwrap_or(0.0);
-                k += pairs as f64 * self.width * stiffness;
-            }
+        for slot in (0..SLOTS).filter(|&k| self.carrying(k)) {
+            let (delta, _) = self.flank_delta(slot_flank(slot), y);
+            k += law.stiffness(delta, self.s_contact(slot, y)).unwrap_or(0.0);
         }
         k
     }
@@ -1086,19 +1124,15 @@ impl Mesh {
     /// Elastic energy of the carrying pairs and of the slider's spring.
     pub fn elastic_energy(&self, y: &State) -> Result<f64, LawOutOfRange> {
         let mut e = self.slider.map_or(0.0, |s| 0.5 * s.k * y[X_S] * y[X_S]);
-        if self.rigid() {
+        let Some(law) = self.compliance() else {
             return Ok(e);
-        }
-        for f in [Flank::Forward, Flank::Backward] {
-            let pairs = (0..SLOTS)
-                .filter(|&k| slot_flank(k) == f && self.carrying(k))
-                .count();
-            if pairs > 0 {
-                let (delta, _) = self.flank_delta(f, y);
-                let u = johnson::energy(delta, self.geo.l + delta, self.geo.e_star)
-                    .map_err(|err| self.out_of_range(f, err))?;
-                e += pairs as f64 * self.width * u;
-            }
+        };
+        for k in (0..SLOTS).filter(|&k| self.carrying(k)) {
+            let f = slot_flank(k);
+            let (delta, _) = self.flank_delta(f, y);
+            e += law
+                .energy(delta, self.s_contact(k, y))
+                .map_err(|err| self.out_of_range(f, err))?;
         }
         Ok(e)
     }
@@ -1217,20 +1251,18 @@ impl Mesh {
     pub fn abs_tol(&self, rel_tol: f64) -> [f64; N_CONTROLLED] {
         let g = &self.geo;
         let force = self.loads.tau_a.abs() / g.r_ab + self.loads.tau_b.abs() / g.r_bb;
-        let n = force / self.width;
-        let delta = if n > 0.0 {
-            // Eq. 5.1 at R = L: delta(N), monotone, no iteration needed for a scale.
-            n / (std::f64::consts::PI * g.e_star)
-                * ((4.0 * std::f64::consts::PI * g.e_star * g.l / n).ln() - 1.0)
-        } else {
-            0.0
+        let law = self.compliance();
+        let delta = match law {
+            Some(l) if force > 0.0 => l.static_delta(force),
+            _ => 0.0,
         };
         let delta = if delta.is_finite() {
             delta.max(1e-12)
         } else {
             1e-12
         };
-        let k = self.width * johnson::stiffness(delta, g.l + delta, g.e_star).unwrap_or(0.0);
+        let mid = 0.5 * (g.s_a + g.s_b);
+        let k = law.map_or(0.0, |l| l.stiffness(delta, mid).unwrap_or(0.0));
         let omega = (k * (g.r_ab * g.r_ab / self.j_a + g.r_bb * g.r_bb / self.j_b)).sqrt();
         let velocity = (delta * omega).max(1e-12);
         let (x, vx) = match self.slider {

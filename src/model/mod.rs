@@ -4,6 +4,7 @@
 pub mod contact;
 pub mod geometry;
 pub mod johnson;
+pub mod law;
 pub mod mesh;
 pub mod rig;
 pub mod rigid;

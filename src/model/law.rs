@@ -1,0 +1,82 @@
+//! The compliant contact laws behind one interface: a pair's elastic force, stiffness and
+//! energy at a penetration, and, for a law whose stiffness depends on where the pair sits on
+//! the line of action, that dependence. A new law is a new type implementing `ContactLaw` and
+//! one more variant of `Law`.
+
+use super::johnson::{self, OutOfRange};
+use super::tooth_structure::StructureLaw;
+
+pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
+
+pub trait ContactLaw {
+    /// Elastic normal force [N] of one pair (whole face width) at penetration delta >= 0, its
+    /// contact at s_A on the line of action.
+    fn force(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
+    /// dF/d(delta) [N/m] at fixed s_A.
+    fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
+    /// Elastic energy [J]: the integral of the force from 0 to delta at fixed s_A.
+    fn energy(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
+    /// dU/ds_A at fixed delta [N], given the pair's elastic force there: 0 unless the law
+    /// depends on the position. The mesh force acts along the line of action only, so this term
+    /// is work done on the pair by its changing stiffness (parametric excitation), booked with
+    /// the external work.
+    fn energy_slope(&self, force: f64, s_a: f64) -> f64;
+    /// Whether force, stiffness and energy depend on s_A (else one evaluation per flank serves
+    /// all its pairs).
+    fn depends_on_position(&self) -> bool;
+    /// The penetration of one pair under force F at a typical position (a scale for tolerances).
+    fn static_delta(&self, force: f64) -> f64;
+    /// How the limit of the law's range is named in messages.
+    fn limit_name(&self) -> &'static str;
+}
+
+/// Johnson's line contact (paper eq. 5.1) with R = L + delta: independent of the position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JohnsonLaw {
+    pub l: f64,
+    pub e_star: f64,
+    pub width: f64,
+}
+
+impl ContactLaw for JohnsonLaw {
+    fn force(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
+        Ok(self.width * johnson::force(delta, self.l + delta, self.e_star)?)
+    }
+    fn stiffness(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
+        Ok(self.width * johnson::stiffness(delta, self.l + delta, self.e_star)?)
+    }
+    fn energy(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
+        Ok(self.width * johnson::energy(delta, self.l + delta, self.e_star)?)
+    }
+    fn energy_slope(&self, _force: f64, _s_a: f64) -> f64 {
+        0.0
+    }
+    fn depends_on_position(&self) -> bool {
+        false
+    }
+    fn static_delta(&self, force: f64) -> f64 {
+        // Eq. 5.1 at R = L: delta(N), monotone, no iteration needed for a scale.
+        use std::f64::consts::PI;
+        let n = force / self.width;
+        n / (PI * self.e_star) * ((4.0 * PI * self.e_star * self.l / n).ln() - 1.0)
+    }
+    fn limit_name(&self) -> &'static str {
+        JOHNSON_LIMIT
+    }
+}
+
+/// The compliant laws (`contact_model` 1 and 3).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Law {
+    Johnson(JohnsonLaw),
+    Structure(Box<StructureLaw>),
+}
+
+impl Law {
+    pub fn get(&self) -> &dyn ContactLaw {
+        match self {
+            Law::Johnson(l) => l,
+            Law::Structure(l) => l.as_ref(),
+        }
+    }
+}
