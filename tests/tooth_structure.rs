@@ -147,3 +147,33 @@ fn the_tooth_structure_needs_the_standard_geometry() {
         err.message
     );
 }
+
+/// Sainsot's fit is for u_f >= 0: a large wheel with positive shift reaches contacts where the
+/// load line meets the centre line below the root circle. u_f = 0 is used there, and the
+/// initialization says so once, naming the wheel.
+#[test]
+fn outside_sainsots_domain_is_a_warning() {
+    use spur_gear_mesh::model::Mesh;
+    let p = Params {
+        zA: 60,
+        zB: 100,
+        module: 8e-3,
+        xA: 0.5,
+        xB: -0.5,
+        ..standard(3)
+    };
+    let (mesh, _) = Mesh::new(&p, &drive()).unwrap();
+    let w: Vec<&String> = mesh
+        .geo
+        .warnings
+        .iter()
+        .filter(|w| w.contains("u_f"))
+        .collect();
+    assert!(
+        !w.is_empty() && w.iter().all(|w| w.contains("wheel")),
+        "{:?}",
+        mesh.geo.warnings
+    );
+    let (quiet, _) = Mesh::new(&standard(3), &drive()).unwrap();
+    assert!(quiet.geo.warnings.iter().all(|w| !w.contains("u_f")));
+}

@@ -212,7 +212,7 @@ impl Mesh {
     /// Builds the mesh and its initial state from the parameters (spec §3 initial values;
     /// rig-and-modes §2 for the rigid contact's initial mode).
     pub fn new(p: &Params, inputs: &Inputs) -> Result<(Mesh, State), ModelError> {
-        let geo = Geometry::new(p)?;
+        let mut geo = Geometry::new(p)?;
         let slider = Slider::from_params(p)?;
         let law = if p.contact_model == 2 {
             if !(p.dte_start >= -p.backlash && p.dte_start <= 0.0) {
@@ -232,7 +232,9 @@ impl Mesh {
                     p.geometry
                 )));
             }
-            ContactModel::Compliant(Law::Structure(Box::new(structure_law(p, &geo)?)))
+            let law = structure_law(p, &geo)?;
+            geo.warnings.extend(law.warnings(&geo));
+            ContactModel::Compliant(Law::Structure(Box::new(law)))
         } else {
             ContactModel::Compliant(Law::Johnson(JohnsonLaw {
                 l: geo.l,

@@ -8,6 +8,7 @@ pub mod law;
 pub mod mesh;
 pub mod rig;
 pub mod rigid;
+pub mod static_mesh;
 pub mod statistics;
 pub mod tooth_structure;
 

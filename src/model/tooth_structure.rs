@@ -205,6 +205,15 @@ impl Wheel {
         self.r_b / self.alpha_1(s).cos() - self.r_f
     }
 
+    /// Where u_f = 0 (the contacts s where the load line meets the centre line on the root
+    /// circle): only where the root circle lies above the base circle.
+    pub fn u_f_zero(&self) -> Option<[f64; 2]> {
+        (self.r_f > self.r_b).then(|| {
+            let a = (self.r_b / self.r_f).acos();
+            [self.r_b * (self.alpha_2 - a), self.r_b * (self.alpha_2 + a)]
+        })
+    }
+
     /// The fillet-foundation compliance [m/N] (Sainsot, Velex & Duverger 2004).
     pub fn fillet_compliance(&self, s: f64, b: f64) -> f64 {
         let a1 = self.alpha_1(s);
@@ -306,7 +315,17 @@ pub fn structure_law(p: &Params, g: &Geometry) -> Result<StructureLaw, ModelErro
 /// rel_tol from 1e-12 on. (The exact ln C itself is a quadrature whose rounding is ~1e-13.)
 #[derive(Clone, Debug, PartialEq)]
 pub struct LnCTable {
+    /// Spans between the kinks of ln C (where Sainsot's u_f reaches 0 and is held there), each
+    /// fitted on its own: a polynomial piece across a kink would converge only linearly.
+    spans: Vec<Span>,
+    /// The largest difference from the exact ln C found by the check.
+    pub error: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Span {
     lo: f64,
+    hi: f64,
     /// Pieces per metre.
     scale: f64,
     /// Per piece, the coefficients of u^0..u^DEGREE, u in [-1, 1] across the piece.
@@ -319,8 +338,64 @@ pub const LN_C_TOLERANCE: f64 = 1e-11;
 const DEGREE: usize = 7;
 
 impl LnCTable {
-    pub fn new(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> Result<LnCTable, ModelError> {
-        let mut pieces = 32;
+    /// Fits ln C on [lo, hi] with breaks at `kinks` (those inside are used).
+    pub fn new(
+        f: &dyn Fn(f64) -> f64,
+        lo: f64,
+        hi: f64,
+        kinks: &[f64],
+    ) -> Result<LnCTable, ModelError> {
+        let mut cuts: Vec<f64> = kinks
+            .iter()
+            .cloned()
+            .filter(|&k| k > lo && k < hi)
+            .collect();
+        cuts.sort_by(f64::total_cmp);
+        let ends: Vec<f64> = std::iter::once(lo)
+            .chain(cuts)
+            .chain(std::iter::once(hi))
+            .collect();
+        let spans = ends
+            .windows(2)
+            // About 32 pieces over the whole interval to start with (enough for the smooth ln C
+            // of the default pair).
+            .map(|w| {
+                Span::new(
+                    f,
+                    w[0],
+                    w[1],
+                    ((32.0 * (w[1] - w[0]) / (hi - lo)).ceil() as usize).max(4),
+                )
+            })
+            .collect::<Result<Vec<Span>, ModelError>>()?;
+        let error = spans.iter().map(|s| s.error).fold(0.0, f64::max);
+        Ok(LnCTable { spans, error })
+    }
+
+    /// The number of polynomial pieces.
+    pub fn len(&self) -> usize {
+        self.spans.iter().map(|s| s.coef.len()).sum()
+    }
+
+    fn span(&self, s: f64) -> &Span {
+        self.spans
+            .iter()
+            .find(|sp| s < sp.hi)
+            .unwrap_or(self.spans.last().expect("a span"))
+    }
+
+    pub fn value(&self, s: f64) -> f64 {
+        self.span(s).value(s)
+    }
+
+    pub fn derivative(&self, s: f64) -> f64 {
+        self.span(s).derivative(s)
+    }
+}
+
+impl Span {
+    fn new(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, start: usize) -> Result<Span, ModelError> {
+        let mut pieces = start;
         loop {
             let t = Self::fit(f, lo, hi, pieces);
             if t.error <= LN_C_TOLERANCE {
@@ -336,7 +411,7 @@ impl LnCTable {
         }
     }
 
-    fn fit(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, pieces: usize) -> LnCTable {
+    fn fit(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, pieces: usize) -> Span {
         const N: usize = DEGREE + 1;
         let width = (hi - lo) / pieces as f64;
         let node = |j: usize| (PI * (j as f64 + 0.5) / N as f64).cos();
@@ -378,8 +453,9 @@ impl LnCTable {
                 power
             })
             .collect();
-        let mut t = LnCTable {
+        let mut t = Span {
             lo,
+            hi,
             scale: 1.0 / width,
             coef,
             error: 0.0,
@@ -396,11 +472,6 @@ impl LnCTable {
         t
     }
 
-    /// The number of pieces.
-    pub fn len(&self) -> usize {
-        self.coef.len()
-    }
-
     /// The piece of s (the end pieces extend beyond the table) and u in it.
     fn locate(&self, s: f64) -> (&[f64; DEGREE + 1], f64) {
         let x = (s - self.lo) * self.scale;
@@ -408,12 +479,12 @@ impl LnCTable {
         (&self.coef[i], 2.0 * (x - i as f64) - 1.0)
     }
 
-    pub fn value(&self, s: f64) -> f64 {
+    fn value(&self, s: f64) -> f64 {
         let (c, u) = self.locate(s);
         c.iter().rev().fold(0.0, |acc, &ck| acc * u + ck)
     }
 
-    pub fn derivative(&self, s: f64) -> f64 {
+    fn derivative(&self, s: f64) -> f64 {
         let (c, u) = self.locate(s);
         let d = (1..=DEGREE)
             .rev()
@@ -438,7 +509,12 @@ impl StructureLaw {
     /// for objects at the ends while an event is located).
     pub fn new(structure: Structure, s_a: f64, s_b: f64) -> Result<StructureLaw, ModelError> {
         let pad = 0.01 * (s_b - s_a);
-        let table = LnCTable::new(&|s| structure.ln_c(s), s_a - pad, s_b + pad)?;
+        let kinks = [
+            structure.a.u_f_zero(),
+            structure.b.u_f_zero().map(|k| k.map(|s| structure.l - s)),
+        ];
+        let kinks: Vec<f64> = kinks.iter().flatten().flatten().cloned().collect();
+        let table = LnCTable::new(&|s| structure.ln_c(s), s_a - pad, s_b + pad, &kinks)?;
         let p = PI * structure.width * structure.e_star;
         let ln_c_mid = table.value(0.5 * (s_a + s_b));
         Ok(StructureLaw {
@@ -447,6 +523,27 @@ impl StructureLaw {
             p,
             ln_c_mid,
         })
+    }
+
+    /// Sainsot's fit holds for u_f >= 0; where the active profile reaches contacts with
+    /// u_f < 0 (large wheels with positive shift) u_f = 0 is used there, which this says.
+    pub fn warnings(&self, g: &Geometry) -> Vec<String> {
+        let st = &self.structure;
+        [("A", &st.a, g.s_a, g.s_b), ("B", &st.b, st.l - g.s_b, st.l - g.s_a)]
+            .iter()
+            .filter_map(|&(name, w, lo, hi)| {
+                let [k1, k2] = w.u_f_zero()?;
+                (k1 < hi && k2 > lo).then(|| {
+                    format!(
+                        "contact model 3: on wheel {name} the load line of contacts between s = {:.6} and {:.6} m \
+                         (roll distance from {name}'s tangent point) meets the tooth centre line below the root circle \
+                         (Sainsot's u_f < 0, outside his fit): u_f = 0 is used there",
+                        k1.max(lo),
+                        k2.min(hi)
+                    )
+                })
+            })
+            .collect()
     }
 
     /// (F, ln C) at |delta|, or the range error.
