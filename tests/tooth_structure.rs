@@ -110,6 +110,8 @@ fn the_law_is_consistent() {
             let k = law.stiffness(delta, s).unwrap();
             let fd = (f(delta + h) - f(delta - h)) / (2.0 * h);
             assert!((k - fd).abs() < 1e-6 * k, "stiffness {k} vs {fd}");
+            let from_force = law.stiffness_at_force(f(delta), delta, s);
+            assert!((from_force - k).abs() < 1e-12 * k, "{from_force} vs {k}");
             // Energy against Simpson's rule on 2000 intervals of F (error ~1e-12 relative).
             let n = 2000;
             let simpson: f64 = (0..=n)
@@ -176,4 +178,53 @@ fn outside_sainsots_domain_is_a_warning() {
     );
     let (quiet, _) = Mesh::new(&standard(3), &drive()).unwrap();
     assert!(quiet.geo.warnings.iter().all(|w| !w.contains("u_f")));
+}
+
+/// k_mesh and load_share (issue 9, point 4) along a damped run: k_mesh is the sum of the
+/// carrying pairs' tangent stiffnesses; Johnson's law shares a flank's force equally between
+/// its pairs (load_share 1/2 in double contact, 1 or 0 in single contact), the tooth structure
+/// does not (each pair's stiffness depends on where it sits).
+#[test]
+fn k_mesh_and_load_share() {
+    use spur_gear_mesh::model::law::JohnsonLaw;
+    for cm in [1, 3] {
+        let p = Params {
+            chi: 10.0,
+            ..standard(cm)
+        };
+        let g = Geometry::new(&p).unwrap();
+        let johnson = JohnsonLaw {
+            l: g.l,
+            e_star: g.e_star,
+            width: p.width,
+        };
+        let structure = structure_law(&p, &g).unwrap();
+        let law: &dyn ContactLaw = if cm == 1 { &johnson } else { &structure };
+        let mut sim = Simulation::new(&p, &drive(), 0.0, 1e-8).unwrap();
+        let mut uneven = 0;
+        for k in 1..=400 {
+            sim.advance(0.05 + k as f64 * 1e-4, &mut |_, _| {}).unwrap();
+            let o = outputs(&sim).unwrap();
+            let pairs: Vec<f64> = [(o.F_f1, o.s_f1), (o.F_f2, o.s_f2)]
+                .iter()
+                .filter(|(f, _)| *f != 0.0)
+                .map(|&(_, s)| law.stiffness(o.dte, s).unwrap())
+                .collect();
+            let k_sum: f64 = pairs.iter().sum();
+            assert!(
+                (o.k_mesh - k_sum).abs() <= 1e-9 * k_sum,
+                "{} vs {k_sum}",
+                o.k_mesh
+            );
+            assert!((o.load_share - o.F_f1 / o.F_fwd).abs() <= 1e-15);
+            if o.n_fwd == 2 {
+                if cm == 1 {
+                    assert_eq!(o.load_share, 0.5);
+                } else if (o.load_share - 0.5).abs() > 1e-3 {
+                    uneven += 1;
+                }
+            }
+        }
+        assert!(cm == 1 || uneven > 0, "model 3 shares unevenly");
+    }
 }

@@ -64,6 +64,12 @@ pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
     o.x_slider = r.x_slider;
     o.F_B_x = r.force_on_b[0];
     o.F_B_y = r.force_on_b[1];
+    o.k_mesh = r.k_mesh;
+    o.load_share = if r.flank_force[0] != 0.0 {
+        r.pair_force[0] / r.flank_force[0]
+    } else {
+        0.0
+    };
     o.dte_mean = run.dte_mean;
     o.dte_rms = run.dte_rms;
     o.dte_min = run.dte_min;

@@ -14,6 +14,8 @@ pub trait ContactLaw {
     fn force(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
     /// dF/d(delta) [N/m] at fixed s_A.
     fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
+    /// The same from the pair's elastic force F at delta, without solving the law again.
+    fn stiffness_at_force(&self, force: f64, delta: f64, s_a: f64) -> f64;
     /// Elastic energy [J]: the integral of the force from 0 to delta at fixed s_A.
     fn energy(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
     /// dU/ds_A at fixed delta [N], given the pair's elastic force there: 0 unless the law
@@ -44,6 +46,16 @@ impl ContactLaw for JohnsonLaw {
     }
     fn stiffness(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
         Ok(self.width * johnson::stiffness(delta, self.l + delta, self.e_star)?)
+    }
+    /// pi E* b / (-1 - ln y), y = e N/(4 pi E* R) (`johnson::stiffness`).
+    fn stiffness_at_force(&self, force: f64, delta: f64, _s_a: f64) -> f64 {
+        use std::f64::consts::{E, PI};
+        let y = E * (force / self.width) / (4.0 * PI * self.e_star * (self.l + delta));
+        if y > 0.0 {
+            self.width * PI * self.e_star / (-1.0 - y.ln())
+        } else {
+            0.0
+        }
     }
     fn energy(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
         Ok(self.width * johnson::energy(delta, self.l + delta, self.e_star)?)

@@ -197,6 +197,8 @@ pub struct Readout {
     pub x_slider: f64,
     /// The mesh force on B (x, y).
     pub force_on_b: [f64; 2],
+    /// Tangent stiffness of the carrying pairs [N/m].
+    pub k_mesh: f64,
 }
 
 /// What happened at an event, for the log.
@@ -438,7 +440,7 @@ impl Mesh {
     fn compliant_load(
         &self,
         y: &State,
-        mut pairs: Option<&mut [(f64, f64); SLOTS]>,
+        mut pairs: Option<&mut [(f64, f64, f64); SLOTS]>,
     ) -> Result<MeshLoad, LawOutOfRange> {
         let g = &self.geo;
         let law = self.compliance().expect("compliant");
@@ -489,7 +491,7 @@ impl Mesh {
                     m.f_bx += rig::force_on_b(f, fn_, ft, self.sin_a, self.cos_a).0;
                 }
                 if let Some(p) = pairs.as_deref_mut() {
-                    p[k] = (fn_, ft);
+                    p[k] = (fn_, ft, n);
                 }
             }
         }
@@ -1150,9 +1152,12 @@ impl Mesh {
         ))
     }
 
-    /// Normal and friction force of every slot, and the load they make.
-    fn pair_forces(&self, y: &State) -> Result<([(f64, f64); SLOTS], MeshLoad), LawOutOfRange> {
-        let mut pairs = [(0.0, 0.0); SLOTS];
+    /// Normal, friction and elastic force of every slot, and the load they make.
+    fn pair_forces(
+        &self,
+        y: &State,
+    ) -> Result<([(f64, f64, f64); SLOTS], MeshLoad), LawOutOfRange> {
+        let mut pairs = [(0.0, 0.0, 0.0); SLOTS];
         if !self.rigid() {
             let load = self.compliant_load(y, Some(&mut pairs))?;
             return Ok((pairs, load));
@@ -1171,7 +1176,7 @@ impl Mesh {
                     let s_a = self.s_contact(k, y);
                     ft = self.friction(s_a, self.geo.l - s_a, w_a, w_b).0 * fn_;
                 }
-                pairs[k] = (fn_, ft);
+                pairs[k] = (fn_, ft, fn_);
             }
         }
         Ok((pairs, load))
@@ -1186,6 +1191,8 @@ impl Mesh {
         let (pairs, load) = self.pair_forces(y)?;
         let parked = [self.parked(Flank::Forward), self.parked(Flank::Backward)];
         let mut force_on_b = [0.0; 2];
+        let mut k_mesh = 0.0;
+        let law = self.compliance();
         for k in 0..SLOTS {
             if !self.present[k] {
                 continue;
@@ -1204,6 +1211,10 @@ impl Mesh {
                 let (fx, fy) = rig::force_on_b(f, pairs[k].0, pairs[k].1, self.sin_a, self.cos_a);
                 force_on_b[0] += fx;
                 force_on_b[1] += fy;
+                if let Some(law) = law {
+                    let delta = self.flank_delta(f, y).0;
+                    k_mesh += law.stiffness_at_force(pairs[k].2, delta, s[k]);
+                }
             }
         }
         let (balance, e_kin, e_el) = self.energy_terms(y)?;
@@ -1231,6 +1242,7 @@ impl Mesh {
             n_impacts: self.n_impacts,
             x_slider: y[X_S],
             force_on_b,
+            k_mesh,
         })
     }
 

@@ -574,6 +574,13 @@ impl ContactLaw for StructureLaw {
             0.0
         })
     }
+    fn stiffness_at_force(&self, force: f64, _delta: f64, s_a: f64) -> f64 {
+        if force > 0.0 {
+            self.p / (self.table.value(s_a) - force.ln() - 1.0)
+        } else {
+            0.0
+        }
+    }
     /// U = F delta/2 - F^2/(4 pi b E*), from U = F delta - int delta dF.
     fn energy(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
         let d = delta.max(0.0);
