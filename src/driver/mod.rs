@@ -66,58 +66,33 @@ pub struct Tolerance {
     pub n_controlled: usize,
 }
 
-#[derive(Clone, Debug, PartialEq)]
+/// Why a method could not take its step (the driver adds the context).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StepError {
+    #[error(transparent)]
     Law(LawOutOfRange),
-    StepTooSmall {
-        t: f64,
-        h: f64,
-    },
+    #[error("at t = {t} s the step fell to {h} s without meeting the tolerance")]
+    StepTooSmall { t: f64, h: f64 },
     /// The implicit solver (diffsol) failed otherwise.
-    Solver {
-        t: f64,
-        message: String,
-    },
+    #[error("at t = {t} s the implicit solver failed: {message}")]
+    Solver { t: f64, message: String },
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DriverError {
     /// The contact law left its range at time t.
-    Law {
-        t: f64,
-        err: LawOutOfRange,
-    },
-    StepTooSmall {
-        t: f64,
-        h: f64,
-    },
-    Solver {
-        t: f64,
-        message: String,
-    },
+    #[error("at t = {t} s: {err}")]
+    Law { t: f64, err: LawOutOfRange },
+    #[error("at t = {t} s the integrator's step fell to {h} s without meeting the tolerance")]
+    StepTooSmall { t: f64, h: f64 },
+    #[error("at t = {t} s the implicit solver failed: {message}")]
+    Solver { t: f64, message: String },
     /// The work cap of one communication step was reached (e.g. chattering contacts).
-    TooMuchWork {
-        t: f64,
-        steps: u64,
-        events: u64,
-    },
-}
-
-impl std::fmt::Display for DriverError {
-    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        match self {
-            DriverError::Law { t, err } => write!(f, "at t = {t} s: {err}"),
-            DriverError::StepTooSmall { t, h } => {
-                write!(f, "at t = {t} s the integrator's step fell to {h} s without meeting the tolerance")
-            }
-            DriverError::Solver { t, message } => write!(f, "at t = {t} s the implicit solver failed: {message}"),
-            DriverError::TooMuchWork { t, steps, events } => write!(
-                f,
-                "at t = {t} s the communication step needed more than {steps} internal steps or {events} events \
-                 (the work cap per step); reduce the communication step or check the scene"
-            ),
-        }
-    }
+    #[error(
+        "at t = {t} s the communication step needed more than {steps} internal steps or {events} events \
+         (the work cap per step); reduce the communication step or check the scene"
+    )]
+    TooMuchWork { t: f64, steps: u64, events: u64 },
 }
 
 /// Weighted RMS norm over the controlled components.
@@ -176,6 +151,142 @@ pub enum Method {
     Bdf(bdf::Bdf),
 }
 
+/// What the driver reads of a method: its last step and the dense output over it.
+pub trait DenseOutput {
+    /// The time the method has integrated to, and the start of its last step.
+    fn t(&self) -> f64;
+    fn t_prev(&self) -> f64;
+    fn y(&self) -> &State;
+    /// The step size it will try next.
+    fn h(&self) -> f64;
+    /// The state's rate at the end of the last step (at a restart: at the restart point).
+    fn rate_at_end(&self) -> State;
+    /// The dense output and its rate at time t inside the last step.
+    fn interpolate(&self, t: f64) -> State;
+    fn derivative(&self, t: f64) -> State;
+}
+
+/// How the driver steps a method on a system.
+pub trait Stepper<S: System>: DenseOutput {
+    /// Starts at (t, y), with a step-size hint (else the method's own estimate).
+    fn restart(
+        &mut self,
+        sys: &S,
+        t: f64,
+        y: &State,
+        h: Option<f64>,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError>;
+    /// One accepted step of at most h_max.
+    fn step(
+        &mut self,
+        sys: &S,
+        h_max: f64,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError>;
+}
+
+impl DenseOutput for dopri5::Dopri5 {
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn t_prev(&self) -> f64 {
+        self.t_prev
+    }
+    fn y(&self) -> &State {
+        &self.y
+    }
+    fn h(&self) -> f64 {
+        self.h
+    }
+    fn rate_at_end(&self) -> State {
+        self.k1
+    }
+    fn interpolate(&self, t: f64) -> State {
+        dopri5::Dopri5::interpolate(self, t)
+    }
+    fn derivative(&self, t: f64) -> State {
+        dopri5::Dopri5::derivative(self, t)
+    }
+}
+
+impl<S: System> Stepper<S> for dopri5::Dopri5 {
+    fn restart(
+        &mut self,
+        sys: &S,
+        t: f64,
+        y: &State,
+        h: Option<f64>,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        dopri5::Dopri5::restart(self, sys, t, y, h, tol, stats)
+    }
+    fn step(
+        &mut self,
+        sys: &S,
+        h_max: f64,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        dopri5::Dopri5::step(self, sys, h_max, tol, stats)
+    }
+}
+
+impl DenseOutput for bdf::Bdf {
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn t_prev(&self) -> f64 {
+        self.t_prev
+    }
+    fn y(&self) -> &State {
+        &self.y
+    }
+    fn h(&self) -> f64 {
+        self.h
+    }
+    fn rate_at_end(&self) -> State {
+        bdf::Bdf::rate_at_end(self)
+    }
+    fn interpolate(&self, t: f64) -> State {
+        bdf::Bdf::interpolate(self, t)
+    }
+    /// diffsol has no derivative of its interpolant: a central difference inside the step.
+    fn derivative(&self, t: f64) -> State {
+        let (t0, t1) = (self.t_prev, self.t);
+        let d = 1e-4 * (t1 - t0);
+        let (a, b) = ((t - d).max(t0), (t + d).min(t1));
+        let (ya, yb) = (self.interpolate(a), self.interpolate(b));
+        std::array::from_fn(|i| (yb[i] - ya[i]) / (b - a))
+    }
+}
+
+impl<S: System + Clone + 'static> Stepper<S> for bdf::Bdf {
+    fn restart(
+        &mut self,
+        sys: &S,
+        t: f64,
+        y: &State,
+        h: Option<f64>,
+        tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        bdf::Bdf::restart(self, sys, t, y, h, tol, stats)
+    }
+    fn step(
+        &mut self,
+        sys: &S,
+        h_max: f64,
+        _tol: &Tolerance,
+        stats: &mut Stats,
+    ) -> Result<(), StepError> {
+        bdf::Bdf::step(self, sys, h_max, stats)
+    }
+}
+
 impl Method {
     pub fn from_solver(solver: i32) -> Method {
         match solver {
@@ -184,65 +295,50 @@ impl Method {
         }
     }
 
-    fn t(&self) -> f64 {
+    /// The one place that tells the methods apart.
+    fn dense(&self) -> &dyn DenseOutput {
         match self {
-            Method::Dopri5(m) => m.t,
-            Method::Bdf(m) => m.t,
+            Method::Dopri5(m) => m,
+            Method::Bdf(m) => m,
         }
+    }
+
+    fn stepper<S: System + Clone + 'static>(&mut self) -> &mut dyn Stepper<S> {
+        match self {
+            Method::Dopri5(m) => m,
+            Method::Bdf(m) => m,
+        }
+    }
+
+    fn t(&self) -> f64 {
+        self.dense().t()
     }
 
     fn t_prev(&self) -> f64 {
-        match self {
-            Method::Dopri5(m) => m.t_prev,
-            Method::Bdf(m) => m.t_prev,
-        }
+        self.dense().t_prev()
     }
 
     fn y(&self) -> &State {
-        match self {
-            Method::Dopri5(m) => &m.y,
-            Method::Bdf(m) => &m.y,
-        }
+        self.dense().y()
     }
 
     fn h(&self) -> f64 {
-        match self {
-            Method::Dopri5(m) => m.h,
-            Method::Bdf(m) => m.h,
-        }
+        self.dense().h()
     }
 
-    /// The state's rate at the end of the last step (at a restart: at the restart point).
     fn rate_at_end(&self) -> State {
-        match self {
-            Method::Dopri5(m) => m.k1,
-            Method::Bdf(m) => m.rate_at_end(),
-        }
+        self.dense().rate_at_end()
     }
 
-    /// The rate of the dense output at time t inside the last step.
     fn derivative(&self, t: f64) -> State {
-        match self {
-            Method::Dopri5(m) => m.derivative(t),
-            Method::Bdf(_) => {
-                // diffsol has no derivative of its interpolant: a central difference inside the step.
-                let (t0, t1) = (self.t_prev(), self.t());
-                let d = 1e-4 * (t1 - t0);
-                let (a, b) = ((t - d).max(t0), (t + d).min(t1));
-                let (ya, yb) = (self.interpolate(a), self.interpolate(b));
-                std::array::from_fn(|i| (yb[i] - ya[i]) / (b - a))
-            }
-        }
+        self.dense().derivative(t)
     }
 
     fn interpolate(&self, t: f64) -> State {
         if t == self.t() {
             return *self.y();
         }
-        match self {
-            Method::Dopri5(m) => m.interpolate(t),
-            Method::Bdf(m) => m.interpolate(t),
-        }
+        self.dense().interpolate(t)
     }
 
     fn restart<S: System + Clone + 'static>(
@@ -254,23 +350,17 @@ impl Method {
         tol: &Tolerance,
         stats: &mut Stats,
     ) -> Result<(), StepError> {
-        match self {
-            Method::Dopri5(m) => m.restart(sys, t, y, h, tol, stats),
-            Method::Bdf(m) => m.restart(sys, t, y, h, tol, stats),
-        }
+        self.stepper::<S>().restart(sys, t, y, h, tol, stats)
     }
 
-    fn step<S: System>(
+    fn step<S: System + Clone + 'static>(
         &mut self,
         sys: &S,
         h_max: f64,
         tol: &Tolerance,
         stats: &mut Stats,
     ) -> Result<(), StepError> {
-        match self {
-            Method::Dopri5(m) => m.step(sys, h_max, tol, stats),
-            Method::Bdf(m) => m.step(sys, h_max, stats),
-        }
+        self.stepper::<S>().step(sys, h_max, tol, stats)
     }
 }
 

@@ -154,7 +154,9 @@ impl Simulation {
     fn observe_to_now(&mut self) {
         let t = self.driver.t;
         if self.driver.observe_to(&mut self.mesh, t).is_err() {
-            self.mesh.stats.as_mut().map(|s| s.poison());
+            if let Some(s) = self.mesh.stats.as_mut() {
+                s.poison();
+            }
         }
     }
 

@@ -5,6 +5,7 @@
 
 use super::johnson::{self, OutOfRange};
 use super::tooth_structure::StructureLaw;
+use std::sync::Arc;
 
 pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
 
@@ -41,6 +42,7 @@ pub struct JohnsonLaw {
 }
 
 impl ContactLaw for JohnsonLaw {
+    #[inline(always)]
     fn force(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
         Ok(self.width * johnson::force(delta, self.l + delta, self.e_star)?)
     }
@@ -81,14 +83,52 @@ impl ContactLaw for JohnsonLaw {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Law {
     Johnson(JohnsonLaw),
-    Structure(Box<StructureLaw>),
+    /// Shared, not copied: a simulation is copied before every integrating fmi2DoStep, and
+    /// the law's table never changes after initialization.
+    Structure(Arc<StructureLaw>),
 }
 
-impl Law {
-    pub fn get(&self) -> &dyn ContactLaw {
-        match self {
-            Law::Johnson(l) => l,
-            Law::Structure(l) => l.as_ref(),
+/// Static dispatch: the right-hand side calls the law for every pair, and a match lets the
+/// compiler inline Johnson's law there as before this interface existed (a call through
+/// `dyn` cost 9 % more instructions on the base scenes).
+macro_rules! dispatch {
+    ($self:ident, $l:ident => $e:expr) => {
+        match $self {
+            Law::Johnson($l) => $e,
+            Law::Structure($l) => $e,
         }
+    };
+}
+
+impl ContactLaw for Law {
+    #[inline(always)]
+    fn force(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
+        dispatch!(self, l => l.force(delta, s_a))
+    }
+    #[inline]
+    fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
+        dispatch!(self, l => l.stiffness(delta, s_a))
+    }
+    #[inline]
+    fn stiffness_at_force(&self, force: f64, delta: f64, s_a: f64) -> f64 {
+        dispatch!(self, l => l.stiffness_at_force(force, delta, s_a))
+    }
+    #[inline]
+    fn energy(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
+        dispatch!(self, l => l.energy(delta, s_a))
+    }
+    #[inline]
+    fn energy_slope(&self, force: f64, s_a: f64) -> f64 {
+        dispatch!(self, l => l.energy_slope(force, s_a))
+    }
+    #[inline]
+    fn depends_on_position(&self) -> bool {
+        dispatch!(self, l => l.depends_on_position())
+    }
+    fn static_delta(&self, force: f64) -> f64 {
+        dispatch!(self, l => l.static_delta(force))
+    }
+    fn limit_name(&self) -> &'static str {
+        dispatch!(self, l => l.limit_name())
     }
 }

@@ -15,7 +15,8 @@ pub mod tooth_structure;
 pub use mesh::{ContactModel, Loads, Mesh, State, NY};
 
 /// An invalid parameter set or initial state, with a message naming the variable and the value.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{message}")]
 pub struct ModelError {
     pub message: String,
 }
@@ -23,11 +24,5 @@ pub struct ModelError {
 impl ModelError {
     pub fn new(message: String) -> Self {
         ModelError { message }
-    }
-}
-
-impl std::fmt::Display for ModelError {
-    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str(&self.message)
     }
 }
