@@ -99,14 +99,49 @@ fn a_grazed_pair_switch_is_located() {
     }
 }
 
+/// The events of a run with one long communication step and free internal steps against those
+/// of a run whose internal steps are forced below 2e-6 s: the same events in the same order, at
+/// times within 1e-7 s. Both run at rel_tol 1e-10, so their states differ by about 1e-10
+/// relative and an event time by that over the event function's rate; 1e-7 s leaves room for
+/// the slowest crossings here (and for impacts, which carry earlier errors into later times).
+fn same_events_with_forced_small_steps(
+    base: Params,
+    w_a: f64,
+    slip: f64,
+    tau_a: f64,
+) -> Result<(), TestCaseError> {
+    let g = Geometry::new(&base).unwrap();
+    let p = Params {
+        w_A_start: w_a,
+        w_B_start: w_a * g.r_ab / g.r_bb * (1.0 + slip),
+        ..base
+    };
+    let i = Inputs {
+        tau_A: tau_a,
+        ..Inputs::default()
+    };
+    let t_end = 0.01;
+    let free = events(&p, &i, 1e-10, t_end, f64::INFINITY);
+    let forced = events(&p, &i, 1e-10, t_end, 2e-6);
+    // The messages quote positions and speeds: compared without their numbers.
+    let words = |w: &str| {
+        w.split_whitespace()
+            .filter(|x| !x.starts_with(|c: char| c.is_ascii_digit() || c == '-'))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let names = |l: &[(f64, String)]| l.iter().map(|(_, w)| words(w)).collect::<Vec<_>>();
+    prop_assert_eq!(names(&free), names(&forced));
+    for ((a, _), (b, _)) in free.iter().zip(&forced) {
+        prop_assert!((a - b).abs() <= 1e-7, "{} vs {}", a, b);
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
 
-    /// Random damped scenes (speeds, torques, backlash, friction): the events located with one
-    /// long communication step and free internal steps are those of a run whose internal steps
-    /// are forced below 2e-6 s, in the same order and at the same times. Both run at rel_tol
-    /// 1e-10, so their states differ by about 1e-10 relative and an event time by that over the
-    /// event function's rate; 1e-7 s leaves room for the slowest crossings here.
+    /// Random damped scenes (speeds, torques, backlash, friction).
     #[test]
     fn event_sequences_do_not_depend_on_the_step(
         w_a in 1.0f64..60.0,
@@ -124,27 +159,12 @@ proptest! {
             dte_start: -dte_frac * backlash,
             ..Params::default()
         };
-        let g = Geometry::new(&base).unwrap();
-        let p = Params {
-            w_A_start: w_a,
-            w_B_start: w_a * g.r_ab / g.r_bb * (1.0 + slip),
-            ..base
-        };
-        let i = Inputs { tau_A: tau_a, ..Inputs::default() };
-        let t_end = 0.01;
-        let free = events(&p, &i, 1e-10, t_end, f64::INFINITY);
-        let forced = events(&p, &i, 1e-10, t_end, 2e-6);
-        let names = |l: &[(f64, String)]| l.iter().map(|(_, w)| w.split(" (").next().unwrap().to_string()).collect::<Vec<_>>();
-        prop_assert_eq!(names(&free), names(&forced));
-        for ((a, _), (b, _)) in free.iter().zip(&forced) {
-            prop_assert!((a - b).abs() <= 1e-7, "{} vs {}", a, b);
-        }
+        same_events_with_forced_small_steps(base, w_a, slip, tau_a)?;
     }
 
     /// The same for the rigid contact (rig-and-modes §2): impacts, locks and releases, and the
     /// pair switches of a locked frictionless flank, which the step continues past without a
-    /// restart (`EventReport::smooth`). Impacts change speeds, so a later event time also moves
-    /// with the earlier ones' errors; the same 1e-7 s holds them.
+    /// restart (`EventReport::smooth`).
     #[test]
     fn rigid_event_sequences_do_not_depend_on_the_step(
         w_a in 1.0f64..60.0,
@@ -164,22 +184,6 @@ proptest! {
             dte_start: -dte_frac * backlash,
             ..Params::default()
         };
-        let g = Geometry::new(&base).unwrap();
-        let p = Params {
-            w_A_start: w_a,
-            w_B_start: w_a * g.r_ab / g.r_bb * (1.0 + slip),
-            ..base
-        };
-        let i = Inputs { tau_A: tau_a, ..Inputs::default() };
-        let t_end = 0.01;
-        let free = events(&p, &i, 1e-10, t_end, f64::INFINITY);
-        let forced = events(&p, &i, 1e-10, t_end, 2e-6);
-        // The messages quote speeds: compared without their numbers.
-        let words = |w: &str| w.split_whitespace().filter(|x| !x.starts_with(|c: char| c.is_ascii_digit() || c == '-')).collect::<Vec<_>>().join(" ");
-        let names = |l: &[(f64, String)]| l.iter().map(|(_, w)| words(w)).collect::<Vec<_>>();
-        prop_assert_eq!(names(&free), names(&forced));
-        for ((a, _), (b, _)) in free.iter().zip(&forced) {
-            prop_assert!((a - b).abs() <= 1e-7, "{} vs {}", a, b);
-        }
+        same_events_with_forced_small_steps(base, w_a, slip, tau_a)?;
     }
 }
