@@ -127,9 +127,6 @@ pub struct Mesh {
     pub geo: Geometry,
     pub loads: Loads,
     pub law: ContactModel,
-    /// `law` is rigid: asked on every mode query, and a flag is one load where the nested
-    /// enum's tag is a compare of ranges.
-    is_rigid: bool,
     pub slider: Option<Slider>,
     width: f64,
     j_a: f64,
@@ -264,7 +261,6 @@ impl Mesh {
             sin_a,
             cos_a,
             inv_m_eff,
-            is_rigid: matches!(law, ContactModel::Rigid { .. }),
             inv_j_a: 1.0 / p.J_A,
             inv_j_b: 1.0 / p.J_B,
             inv_r_bb: 1.0 / geo.r_bb,
@@ -318,7 +314,7 @@ impl Mesh {
     }
 
     fn rigid(&self) -> bool {
-        self.is_rigid
+        matches!(self.law, ContactModel::Rigid { .. })
     }
 
     fn two_sided(&self) -> bool {
