@@ -83,16 +83,7 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
     w.f(m.e_start);
     // The statistics (their presence follows from the parameters).
     if let Some(st) = &m.stats {
-        w.fs(&[
-            st.duration,
-            st.int_dte,
-            st.int_dte2,
-            st.dte_min,
-            st.dte_max,
-            st.f_max,
-            st.t_separated,
-            st.t_backward,
-        ]);
+        w.fs(&st.accumulators());
     }
     let d = &s.driver;
     w.f(d.tol.rtol);
@@ -227,16 +218,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     m.n_impacts = r.u()?;
     m.e_start = r.f()?;
     if let Some(st) = m.stats.as_mut() {
-        [
-            st.duration,
-            st.int_dte,
-            st.int_dte2,
-            st.dte_min,
-            st.dte_max,
-            st.f_max,
-            st.t_separated,
-            st.t_backward,
-        ] = r.fs()?;
+        st.set_accumulators(r.fs()?);
     }
     let d = &mut s.driver;
     d.tol.rtol = r.f()?;

@@ -125,6 +125,33 @@ impl Statistics {
         Ok(())
     }
 
+    /// The running sums and extremes in one fixed order (an FMU state saves them so).
+    pub fn accumulators(&self) -> [f64; 8] {
+        [
+            self.duration,
+            self.int_dte,
+            self.int_dte2,
+            self.dte_min,
+            self.dte_max,
+            self.f_max,
+            self.t_separated,
+            self.t_backward,
+        ]
+    }
+
+    pub fn set_accumulators(&mut self, a: [f64; 8]) {
+        [
+            self.duration,
+            self.int_dte,
+            self.int_dte2,
+            self.dte_min,
+            self.dte_max,
+            self.f_max,
+            self.t_separated,
+            self.t_backward,
+        ] = a;
+    }
+
     /// Marks the statistics as lost: the contact law left its range on the dense output between
     /// two accepted states (a corner case). The outputs' finiteness check then reports F_max.
     pub fn poison(&mut self) {
