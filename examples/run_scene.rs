@@ -105,6 +105,7 @@ enum Value {
     Real(f64),
     Int(i32),
     Bool(bool),
+    Str(String),
 }
 
 fn parse_value(v: Var, s: &str) -> Value {
@@ -112,6 +113,7 @@ fn parse_value(v: Var, s: &str) -> Value {
         VarType::Real => Value::Real(s.parse().expect("a real value")),
         VarType::Integer => Value::Int(s.parse().expect("an integer value")),
         VarType::Boolean => Value::Bool(matches!(s, "true" | "1")),
+        VarType::String => Value::Str(s.to_owned()),
     }
 }
 
@@ -122,6 +124,7 @@ fn toml_value(v: Var, x: &toml::Value) -> Value {
         (VarType::Integer, toml::Value::Integer(i)) => Value::Int(*i as i32),
         (VarType::Boolean, toml::Value::Boolean(b)) => Value::Bool(*b),
         (VarType::Boolean, toml::Value::Integer(i)) => Value::Bool(*i != 0),
+        (VarType::String, toml::Value::String(t)) => Value::Str(t.clone()),
         _ => panic!("start value of {} has the wrong type: {x}", v.info().name),
     }
 }
@@ -378,6 +381,10 @@ fn run_c(c: &Config) -> RunResult {
                 Value::Real(x) => fmi2SetReal(comp, &vr, 1, x),
                 Value::Int(x) => fmi2SetInteger(comp, &vr, 1, x),
                 Value::Bool(x) => fmi2SetBoolean(comp, &vr, 1, &(*x as i32)),
+                Value::Str(x) => {
+                    let text = std::ffi::CString::new(x.as_str()).expect("no NUL in a start value");
+                    fmi2SetString(comp, &vr, 1, &text.as_ptr())
+                }
             };
             assert_eq!(s, Status::Ok, "setting {}", v.info().name);
         }
@@ -731,6 +738,7 @@ fn main() {
             Value::Real(x) => params.set_real(*v, x) || inputs.set_real(*v, x),
             Value::Int(x) => params.set_integer(*v, x),
             Value::Bool(x) => params.set_boolean(*v, x),
+            Value::Str(ref x) => params.set_string(*v, x.clone()),
         };
         assert!(ok, "{} is not a settable parameter or input", v.info().name);
     }

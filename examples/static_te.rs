@@ -40,6 +40,7 @@ fn main() {
                     VarType::Real => p.set_real(var, v.parse().expect("a number")),
                     VarType::Integer => p.set_integer(var, v.parse().expect("an integer")),
                     VarType::Boolean => p.set_boolean(var, v.parse().expect("true or false")),
+                    VarType::String => p.set_string(var, v.to_owned()),
                 };
                 assert!(ok, "{k} is not a parameter");
             }

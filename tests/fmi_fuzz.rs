@@ -1083,7 +1083,7 @@ impl Harness {
                     "fmi2ExitInitializationMode",
                     false,
                 )?;
-                if st == Status::Ok {
+                if matches!(st, Status::Ok | Status::Warning) {
                     let m = &mut self.slots[i].as_mut().unwrap().m;
                     m.t = m.start;
                 }
@@ -1213,12 +1213,15 @@ impl Harness {
             Op::SetString(_, v) => {
                 let vrs: Vec<u32> = v
                     .iter()
-                    .map(|v| resolve_vr(v, VarType::Real, true))
+                    .map(|v| resolve_vr(v, VarType::String, true))
                     .collect();
-                let strs: Vec<*const c_char> = vrs.iter().map(|_| c"x".as_ptr()).collect();
+                // The empty string is valid for the String parameters (no pitch errors).
+                let strs: Vec<*const c_char> = vrs.iter().map(|_| c"".as_ptr()).collect();
                 let st = unsafe { fmi2SetString(c, vrs.as_ptr(), vrs.len(), strs.as_ptr()) };
                 self.grab(i);
-                let must_fail = !vrs.is_empty();
+                let must_fail = vrs
+                    .iter()
+                    .any(|&r| set_reject(r, VarType::String, before.st).is_some());
                 self.expect_set(i, st, must_fail, "fmi2SetString", &before, None)?;
                 ("fmi2SetString", st)
             }
@@ -1291,12 +1294,21 @@ impl Harness {
             Op::GetString(_, v) => {
                 let vrs: Vec<u32> = v
                     .iter()
-                    .map(|v| resolve_vr(v, VarType::Real, false))
+                    .map(|v| resolve_vr(v, VarType::String, false))
                     .collect();
                 let mut out: Vec<*const c_char> = vec![std::ptr::null(); vrs.len()];
                 let st = unsafe { fmi2GetString(c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
                 self.grab(i);
-                self.expect_get(i, st, !vrs.is_empty(), "fmi2GetString", &before)?;
+                let must_fail = vrs
+                    .iter()
+                    .any(|&r| get_reject(r, VarType::String).is_some());
+                self.expect_get(i, st, must_fail, "fmi2GetString", &before)?;
+                if st == Status::Ok {
+                    check!(
+                        out.iter().all(|p| !p.is_null()),
+                        "fmi2GetString gave a null string with fmi2OK"
+                    );
+                }
                 ("fmi2GetString", st)
             }
             Op::DoStep(_, cur, h) => match self.op_step(i, cur, *h)? {
@@ -1620,7 +1632,12 @@ impl Harness {
             }
         }
         match st {
-            Status::Ok => {
+            // fmi2ExitInitializationMode warns about valid but unusual geometry (thin tips).
+            Status::Ok | Status::Warning => {
+                check!(
+                    st == Status::Ok || func == "fmi2ExitInitializationMode",
+                    "{func} gave {st:?}"
+                );
                 if m.known {
                     check!(allowed, "{func} succeeded in {:?}", m.st);
                 }

@@ -790,10 +790,10 @@ fn every_error_path_logs_in_its_category() {
             running,
         ),
         case(
-            "string variable (get)",
+            "string getter on an Integer",
             "fmi2GetString",
             Status::Error,
-            "no String",
+            "geometry (value reference 1) is Integer, not String",
             |f| {
                 let mut p = std::ptr::null();
                 unsafe { fmi2GetString(f.c, &1, 1, &mut p) }
@@ -873,13 +873,26 @@ fn every_error_path_logs_in_its_category() {
             || quiet("q"),
         ),
         case(
-            "string variable (set)",
+            "pitch errors that are not numbers",
             "fmi2SetString",
             Status::Error,
-            "no String",
+            "pitch_errors_A: entry 2 ('x') is not a number",
             |f| {
-                let p = c"x".as_ptr();
-                unsafe { fmi2SetString(f.c, &1, 1, &p) }
+                let p = c"1e-7, x".as_ptr();
+                unsafe { fmi2SetString(f.c, &119, 1, &p) }
+            },
+            || quiet("q"),
+        ),
+        case(
+            "pitch errors, one per tooth",
+            "fmi2ExitInitializationMode",
+            Status::Error,
+            "pitch_errors_B: 2 entries, but the wheel has 33 teeth",
+            |f| {
+                let p = c"1e-7, 2e-7".as_ptr();
+                assert_eq!(unsafe { fmi2SetString(f.c, &120, 1, &p) }, Status::Ok);
+                f.enter_init();
+                f.exit_init()
             },
             || quiet("q"),
         ),

@@ -71,8 +71,9 @@ fn xml_and_value_references_agree() {
         assert_eq!(info.name, x.name);
         let ty = match info.ty {
             VarType::Real => "Real",
-            VarType::Integer => "Integer",
             VarType::Boolean => "Boolean",
+            VarType::String => "String",
+            VarType::Integer => "Integer",
         };
         assert_eq!(ty, x.ty, "{}", x.name);
         let causality = match info.causality {

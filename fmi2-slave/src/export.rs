@@ -136,9 +136,9 @@ macro_rules! export_fmi2 {
             c: $crate::Component,
             vr: *const $crate::ValueReference,
             n: usize,
-            _value: *mut *const ::std::os::raw::c_char,
+            value: *mut *const ::std::os::raw::c_char,
         ) -> $crate::Status {
-            $crate::ffi::no_strings::<$slave>(c, "fmi2GetString", $crate::instance::allowed::GET, vr, n)
+            $crate::ffi::get_string::<$slave>(c, vr, n, value)
         }
 
         #[no_mangle]
@@ -146,9 +146,9 @@ macro_rules! export_fmi2 {
             c: $crate::Component,
             vr: *const $crate::ValueReference,
             n: usize,
-            _value: *const *const ::std::os::raw::c_char,
+            value: *const *const ::std::os::raw::c_char,
         ) -> $crate::Status {
-            $crate::ffi::no_strings::<$slave>(c, "fmi2SetString", $crate::instance::allowed::SET, vr, n)
+            $crate::ffi::set_string::<$slave>(c, vr, n, value)
         }
 
         // ---- FMU states ----------------------------------------------------------------------

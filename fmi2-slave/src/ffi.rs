@@ -18,7 +18,7 @@ use crate::{
     Boolean, CallbackFunctions, Component, FmuState, Status, StatusKind, Type, ValueReference,
 };
 use crate::{DO_STEP_STATUS, LAST_SUCCESSFUL_TIME, PENDING_STATUS, TERMINATED, TYPE_CO_SIMULATION};
-use std::ffi::CStr;
+use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int};
 
 /// More values than any master can mean; guards against garbage counts.
@@ -315,20 +315,56 @@ pub unsafe fn set_boolean<S: Slave>(
     set(c, "fmi2SetBoolean", vr, n, value, S::set_boolean)
 }
 
-/// fmi2GetString and fmi2SetString: no model here has String variables.
-pub unsafe fn no_strings<S: Slave>(
+pub unsafe fn get_string<S: Slave>(
     c: Component,
-    func: &str,
-    states: u32,
     vr: *const ValueReference,
     n: usize,
+    value: *mut *const c_char,
 ) -> Status {
-    with::<S>(c, func, states, |_| match slice(vr, n, "vr")?.first() {
-        Some(r) => Err(error(format!(
-            "value reference {r}: {} has no String variables",
-            S::MODEL_NAME
-        ))),
-        None => Ok(Status::Ok),
+    with::<S>(c, "fmi2GetString", allowed::GET, |i| {
+        let vrs = slice(vr, n, "vr")?;
+        let out = slice_mut(value, n, "value")?;
+        let texts = vrs
+            .iter()
+            .map(|&r| i.slave.get_string(r))
+            .collect::<Result<Vec<String>, Failure>>()?;
+        // Interior NULs cannot be set (they end a C string), so none come back.
+        i.strings = texts
+            .into_iter()
+            .map(|t| CString::new(t).unwrap_or_default())
+            .collect();
+        for (o, t) in out.iter_mut().zip(&i.strings) {
+            *o = t.as_ptr();
+        }
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn set_string<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    value: *const *const c_char,
+) -> Status {
+    with::<S>(c, "fmi2SetString", allowed::SET, |i| {
+        let (vrs, ptrs) = (slice(vr, n, "vr")?, slice(value, n, "value")?);
+        let mut texts = Vec::with_capacity(n);
+        for (&r, &p) in vrs.iter().zip(ptrs) {
+            if p.is_null() {
+                return Err(error(format!("value reference {r}: null string pointer")));
+            }
+            match CStr::from_ptr(p).to_str() {
+                Ok(t) => texts.push(t.to_owned()),
+                Err(e) => {
+                    return Err(error(format!(
+                        "value reference {r}: the string is not UTF-8 ({e})"
+                    )))
+                }
+            }
+        }
+        let running = i.state == FmiState::StepComplete;
+        i.slave.set_string(vrs, &texts, running)?;
+        Ok(Status::Ok)
     })
 }
 

@@ -76,6 +76,8 @@ pub struct Instance<S: Slave> {
     pub slave: S,
     /// FMU states handed out by this instance (owned here, freed by fmi2FreeFMUstate or at free).
     pub(crate) fmu_states: HashSet<usize>,
+    /// The strings of the last fmi2GetString: the master may read them until its next call.
+    pub(crate) strings: Vec<std::ffi::CString>,
 }
 
 /// Marks a live instance: a component pointer to anything else (or to a freed instance) is rejected.
@@ -89,6 +91,7 @@ impl<S: Slave> Instance<S> {
             state: FmiState::Instantiated,
             slave: S::fresh(),
             fmu_states: HashSet::new(),
+            strings: Vec::new(),
         }
     }
 

@@ -57,6 +57,9 @@ pub trait Slave: Clone + 'static {
     fn get_boolean(&mut self, vr: ValueReference) -> Result<bool, Failure> {
         Err(no_variables::<Self>(vr, "Boolean"))
     }
+    fn get_string(&mut self, vr: ValueReference) -> Result<String, Failure> {
+        Err(no_variables::<Self>(vr, "String"))
+    }
 
     /// fmi2Set*: sets `values[k]` to `vrs[k]` (equal lengths), all or none: every value is
     /// checked before any is applied. `running`: after initialization (stepComplete), when
@@ -87,6 +90,19 @@ pub trait Slave: Clone + 'static {
     ) -> Result<(), Failure> {
         match vrs.first() {
             Some(&vr) => Err(no_variables::<Self>(vr, "Boolean")),
+            None => Ok(()),
+        }
+    }
+
+    /// Strings as UTF-8 text (the layer rejects null pointers and invalid UTF-8).
+    fn set_string(
+        &mut self,
+        vrs: &[ValueReference],
+        _values: &[String],
+        _running: bool,
+    ) -> Result<(), Failure> {
+        match vrs.first() {
+            Some(&vr) => Err(no_variables::<Self>(vr, "String")),
             None => Ok(()),
         }
     }

@@ -79,6 +79,7 @@ impl Var {
             toml::Value::Integer(i) if self.ty == "Real" => format_real(*i as f64),
             toml::Value::Integer(i) => i.to_string(),
             toml::Value::Boolean(b) => b.to_string(),
+            toml::Value::String(t) if self.ty == "String" => t.clone(),
             other => panic!("variable {}: unsupported start value {other}", self.name),
         })
     }
@@ -90,6 +91,7 @@ impl Var {
             .unwrap_or_else(|| panic!("variable {} needs a start value", self.name));
         match self.ty.as_str() {
             "Real" if !text.contains(['.', 'e', 'E']) => format!("{text}.0"),
+            "String" => format!("String::from({text:?})"),
             _ => text,
         }
     }
@@ -99,6 +101,7 @@ impl Var {
             "Real" => "f64",
             "Integer" => "i32",
             "Boolean" => "bool",
+            "String" => "String",
             t => panic!("variable {}: unknown type {t}", self.name),
         }
     }
@@ -349,7 +352,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     }
     writeln!(w, "}}").unwrap();
 
-    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum VarType {{ Real, Integer, Boolean }}").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum VarType {{ Real, Integer, Boolean, String }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Causality {{ Parameter, CalculatedParameter, Input, Output }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Variability {{ Fixed, Tunable, Continuous, Discrete }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug)]\npub struct VarInfo {{ pub var: Var, pub name: &'static str, pub vr: u32, pub ty: VarType, pub causality: Causality, pub variability: Variability, pub unit: Option<&'static str>, pub range: Range, pub geometry: Option<i32>, pub description: &'static str }}").unwrap();
@@ -457,6 +460,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
                 match v.ty.as_str() {
                     "Real" => "0.0".into(),
                     "Integer" => "0".into(),
+                    "String" => "String::new()".into(),
                     _ => "false".into(),
                 }
             };
@@ -464,11 +468,21 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         }
         writeln!(w, "        }}\n    }}\n}}").unwrap();
         writeln!(w, "impl {st} {{").unwrap();
-        for (ty, rty) in [("Real", "f64"), ("Integer", "i32"), ("Boolean", "bool")] {
+        for (ty, rty, get_ty) in [
+            ("Real", "f64", "f64"),
+            ("Integer", "i32", "i32"),
+            ("Boolean", "bool", "bool"),
+            ("String", "String", "&str"),
+        ] {
             let lower = ty.to_ascii_lowercase();
-            writeln!(w, "    #[allow(unreachable_patterns)]\n    #[inline]\n    pub fn get_{lower}(&self, v: Var) -> Option<{rty}> {{\n        match v {{").unwrap();
+            writeln!(w, "    #[allow(unreachable_patterns)]\n    #[inline]\n    pub fn get_{lower}(&self, v: Var) -> Option<{get_ty}> {{\n        match v {{").unwrap();
             for f in fields.iter().filter(|f| f.ty == ty) {
-                writeln!(w, "            Var::{n} => Some(self.{n}),", n = f.name).unwrap();
+                let value = if ty == "String" {
+                    format!("self.{}.as_str()", f.name)
+                } else {
+                    format!("self.{}", f.name)
+                };
+                writeln!(w, "            Var::{n} => Some({value}),", n = f.name).unwrap();
             }
             writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
             writeln!(w, "    #[allow(unreachable_patterns, unused_variables)]\n    pub fn set_{lower}(&mut self, v: Var, x: {rty}) -> bool {{\n        match v {{").unwrap();

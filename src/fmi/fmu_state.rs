@@ -19,7 +19,7 @@ use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
 /// The version of the payload below (the envelope's format version).
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
 /// Parameters or inputs, in the table's order.
 fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
@@ -31,6 +31,7 @@ fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
                 w.u(p.get_integer(v).or(i.get_integer(v)).expect("typed") as i64 as u64)
             }
             VarType::Boolean => w.b(p.get_boolean(v).or(i.get_boolean(v)).expect("typed")),
+            VarType::String => w.s(p.get_string(v).expect("typed")),
         }
     }
 }
@@ -56,6 +57,10 @@ fn read_vars(
             VarType::Boolean => {
                 let x = r.b()?;
                 p.set_boolean(v, x);
+            }
+            VarType::String => {
+                let x = r.s()?;
+                p.set_string(v, x);
             }
         }
     }
@@ -209,7 +214,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
         alpha_housing: l[6],
         a_housing_x: l[7],
     };
-    m.sigma = r.fs()?;
+    m.set_sigma(r.fs()?);
     for b in m.sign.iter_mut() {
         *b = r.b()?;
     }

@@ -135,13 +135,24 @@ impl Slave for SpurGearMesh {
         )
     }
 
+    fn get_string(&mut self, vr: ValueReference) -> Result<String, Failure> {
+        let v = lookup(vr, VarType::String)?;
+        self.value(
+            v,
+            |p| p.get_string(v).map(str::to_owned),
+            |i| i.get_string(v).map(str::to_owned),
+            |o| o.get_string(v).map(str::to_owned),
+            |c| c.get_string(v).map(str::to_owned),
+        )
+    }
+
     fn set_real(&mut self, vrs: &[u32], values: &[f64], running: bool) -> Result<(), Failure> {
         self.set_many(
             VarType::Real,
             vrs,
             values,
             running,
-            f64::is_finite,
+            |x| x.is_finite(),
             |p, inp, v, x| {
                 let _ = p.set_real(v, x) || inp.set_real(v, x);
             },
@@ -175,6 +186,20 @@ impl Slave for SpurGearMesh {
             |_| true,
             |p, _, v, x| {
                 p.set_boolean(v, x != 0);
+            },
+        )
+    }
+
+    /// Strings are checked as parameters: the model parses them (a bad entry names its position).
+    fn set_string(&mut self, vrs: &[u32], values: &[String], running: bool) -> Result<(), Failure> {
+        self.set_many(
+            VarType::String,
+            vrs,
+            values,
+            running,
+            |_| true,
+            |p, _, v, x| {
+                p.set_string(v, x);
             },
         )
     }
@@ -337,27 +362,27 @@ impl SpurGearMesh {
     }
 
     /// Sets several variables at once: all are checked before any is applied.
-    fn set_many<T: Copy + std::fmt::Display>(
+    fn set_many<T: Clone + std::fmt::Display>(
         &mut self,
         ty: VarType,
         vrs: &[u32],
         values: &[T],
         running: bool,
-        check: impl Fn(T) -> bool,
+        check: impl Fn(&T) -> bool,
         apply: impl Fn(&mut Params, &mut Inputs, Var, T),
     ) -> Result<(), Failure> {
         let (mut params, mut inputs) = (self.snap.params.clone(), self.snap.inputs.clone());
         let mut any_parameter = false;
-        for (&vr, &x) in vrs.iter().zip(values) {
+        for (&vr, x) in vrs.iter().zip(values) {
             let v = lookup(vr, ty)?;
-            settable(v, &x, running)?;
+            settable(v, x, running)?;
             if !check(x) {
                 return Err(error(format!(
                     "{} = {x}: the value must be finite",
                     v.info().name
                 )));
             }
-            apply(&mut params, &mut inputs, v, x);
+            apply(&mut params, &mut inputs, v, x.clone());
             any_parameter |= v.info().causality == Causality::Parameter;
         }
         // Inputs need only be finite (checked above); parameters are checked as a whole.

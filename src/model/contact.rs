@@ -50,9 +50,20 @@ pub enum EventFn {
     Pen(Flank),
     /// 1 + chi d(delta)/dt of the flank: a damped contact releasing while delta > 0.
     Rel(Flank),
+    /// With shape deviations, pairs have their own penetration delta_i and these replace Pen
+    /// and Rel: delta_i of the gated pair k (onset and separation)...
+    PairPen(usize),
+    /// ... and 1 + chi d(delta_i)/dt (release).
+    PairRel(usize),
+    /// With tip relief: pair k's s_A past the start of A's relief (towards s_b) ...
+    ReliefA(usize),
+    /// ... and before the start of B's relief (towards s_a).
+    ReliefB(usize),
 }
 
-pub const N_EVENTS: usize = 3 * SLOTS + 4;
+/// Index of the first per-pair event (PairPen(0)); four per slot follow.
+const PAIR_EVENTS: usize = 3 * SLOTS + 4;
+pub const N_EVENTS: usize = PAIR_EVENTS + 4 * SLOTS;
 
 impl EventFn {
     pub fn index(self) -> usize {
@@ -62,6 +73,10 @@ impl EventFn {
             EventFn::Gate(k) => 3 * k + 2,
             EventFn::Pen(f) => 3 * SLOTS + 2 * f as usize,
             EventFn::Rel(f) => 3 * SLOTS + 2 * f as usize + 1,
+            EventFn::PairPen(k) => PAIR_EVENTS + 4 * k,
+            EventFn::PairRel(k) => PAIR_EVENTS + 4 * k + 1,
+            EventFn::ReliefA(k) => PAIR_EVENTS + 4 * k + 2,
+            EventFn::ReliefB(k) => PAIR_EVENTS + 4 * k + 3,
         }
     }
 
@@ -79,6 +94,15 @@ impl EventFn {
                 1 => EventFn::Bottom(i / 3),
                 _ => EventFn::Gate(i / 3),
             },
+            i if i >= PAIR_EVENTS => {
+                let k = (i - PAIR_EVENTS) / 4;
+                match (i - PAIR_EVENTS) % 4 {
+                    0 => EventFn::PairPen(k),
+                    1 => EventFn::PairRel(k),
+                    2 => EventFn::ReliefA(k),
+                    _ => EventFn::ReliefB(k),
+                }
+            }
             i if (i - 3 * SLOTS) % 2 == 0 => EventFn::Pen(flank((i - 3 * SLOTS) / 2)),
             i => EventFn::Rel(flank((i - 3 * SLOTS) / 2)),
         }
@@ -90,9 +114,7 @@ impl EventFn {
 pub fn initial_sigmas(g: &Geometry) -> [f64; SLOTS] {
     let f1 = g.s_a;
     let f2 = f1 + g.p_b;
-    // b1: phiA = phiA(f2) + tA with phiA(f1) = alpha_w - s_a/rAb, so
-    // s_A = rAb (alpha_w + phiA) = 2 rAb alpha_w - s_a - p_b + rAb tA.
-    let b1 = 2.0 * g.r_ab * g.alpha_w - g.s_a - g.p_b + g.r_ab * g.t_a;
+    let b1 = b1_sigma(g);
     // b2 = phiA(b1) - dA moves s_A down one pitch; the spec takes + dA if that leaves the window.
     let b2 = if b1 - g.p_b >= g.s_window_low() {
         b1 - g.p_b
@@ -100,6 +122,28 @@ pub fn initial_sigmas(g: &Geometry) -> [f64; SLOTS] {
         b1 + g.p_b
     };
     [f1, f2, b1, b2]
+}
+
+/// b1's sigma: phiA = phiA(f2) + tA with phiA(f1) = alpha_w - s_a/rAb, so
+/// s_A = rAb (alpha_w + phiA) = 2 rAb alpha_w - s_a - p_b + rAb tA.
+fn b1_sigma(g: &Geometry) -> f64 {
+    2.0 * g.r_ab * g.alpha_w - g.s_a - g.p_b + g.r_ab * g.t_a
+}
+
+/// The teeth of A and B (deviations.rs numbers them) that a slot with this sigma holds: f1 at
+/// sigma = s_a holds A0/B0 and each pitch lower on the forward line one tooth more; b1 holds
+/// A1/B0 and each pitch higher on the backward line one tooth less.
+pub fn teeth(g: &Geometry, f: Flank, sigma: f64) -> (i64, i64) {
+    match f {
+        Flank::Forward => {
+            let n = ((g.s_a - sigma) / g.p_b).round() as i64;
+            (-n, -n)
+        }
+        Flank::Backward => {
+            let n = ((sigma - b1_sigma(g)) / g.p_b).round() as i64;
+            (1 - n, -n)
+        }
+    }
 }
 
 /// Moves sigma by whole jumps of m_c pitches until s_A lies in the window [s_low, s_b].

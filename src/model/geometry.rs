@@ -97,6 +97,13 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         }
     }
     crate::model::rig::Slider::from_params(p)?;
+    // The tooth counts are checked at initialization: they may be set after the strings.
+    for (name, text) in [
+        ("pitch_errors_A", &p.pitch_errors_A),
+        ("pitch_errors_B", &p.pitch_errors_B),
+    ] {
+        crate::model::deviations::parse_pitch_errors(name, text, None).map_err(ModelError::new)?;
+    }
     Ok(())
 }
 

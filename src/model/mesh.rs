@@ -13,6 +13,7 @@
 //! side is smooth.
 
 use super::contact::{self, slot_flank, EventFn, Flank, N_EVENTS, SLOTS, SLOT_NAMES};
+use super::deviations::Deviations;
 use super::geometry::Geometry;
 use super::johnson::{self, OutOfRange};
 use super::law::{ContactLaw, JohnsonLaw, Law};
@@ -155,6 +156,11 @@ pub struct Mesh {
     pub(crate) e_start: f64,
     /// The run's statistics up to the driver's last observation (parameter `statistics`).
     pub stats: Option<Statistics>,
+    /// Shape deviations (none: pairs on a flank share delta, and the flank's Pen and Rel
+    /// events serve them all).
+    pub dev: Option<Arc<Deviations>>,
+    /// The pitch deviation of the teeth each slot holds (changes when the slot jumps).
+    pitch_e: [f64; SLOTS],
 }
 
 /// What the mesh shows at a state: the wheels, each contact object's force and contact point,
@@ -235,6 +241,12 @@ impl Mesh {
                 width: p.width,
             }))
         };
+        let dev = Deviations::from_params(p, &geo)?.map(Arc::new);
+        if dev.is_some() && p.contact_model == 2 {
+            return Err(ModelError::new(
+                "parameter contact_model = 2: shape deviations (tip relief, eccentricity, pitch errors) need a compliant contact model (1 or 3); the rigid contact has no penetration for them to add to".into(),
+            ));
+        }
         let theta_a = p.dte_start / geo.r_ab;
         let (geo_r_ab, geo_r_bb) = (geo.r_ab, geo.r_bb);
         let mut present = [false; SLOTS];
@@ -276,7 +288,10 @@ impl Mesh {
             n_impacts: 0,
             e_start: 0.0,
             stats: p.statistics.then(|| Statistics::new(p.stats_start)),
+            dev,
+            pitch_e: [0.0; SLOTS],
         };
+        mesh.set_sigma(sigma);
         let v = geo_r_ab * p.w_A_start - geo_r_bb * p.w_B_start;
         let mut y = [theta_a, p.dte_start, p.w_A_start, v, 0.0, 0.0, 0.0, 0.0];
         mesh.init_signs(&mut y);
@@ -287,6 +302,75 @@ impl Mesh {
             .map_err(|e| ModelError::new(e.to_string()))?
             .0;
         Ok((mesh, y))
+    }
+
+    /// Sets the slots' sigma (at t = 0, or from a saved state) and the teeth they hold.
+    pub fn set_sigma(&mut self, sigma: [f64; SLOTS]) {
+        self.sigma = sigma;
+        for k in 0..SLOTS {
+            self.update_teeth(k);
+        }
+    }
+
+    fn update_teeth(&mut self, k: usize) {
+        if let Some(d) = self.dev.as_deref() {
+            let f = slot_flank(k);
+            self.pitch_e[k] = d.pitch_offset(f, contact::teeth(&self.geo, f, self.sigma[k]));
+        }
+    }
+
+    /// The teeth slot k holds, for messages (A's, B's).
+    fn teeth_text(&self, k: usize) -> String {
+        let (a, b) = contact::teeth(&self.geo, slot_flank(k), self.sigma[k]);
+        format!(
+            "teeth A{}/B{}",
+            a.rem_euclid(self.geo.z_a as i64),
+            b.rem_euclid(self.geo.z_b as i64)
+        )
+    }
+
+    /// Pair k's shape deviation [e, de/dt, d2e/dt2] at y (with `dy`, the accelerations for the
+    /// last; else it reads 0). The tip relief follows the recorded ReliefA/B modes.
+    fn deviation(&self, d: &Deviations, k: usize, y: &State, dy: Option<&State>) -> [f64; 3] {
+        let g = &self.geo;
+        let f = slot_flank(k);
+        let mut e = [self.pitch_e[k], 0.0, 0.0];
+        let (acc_a, acc_b) = dy.map_or((0.0, 0.0), |dy| {
+            (dy[W_A], (g.r_ab * dy[W_A] - dy[DDTE]) / g.r_bb)
+        });
+        if d.has_runout() {
+            let theta_b = (g.r_ab * y[THETA_A] - y[DTE]) / g.r_bb;
+            let r = d.runout(
+                f,
+                [y[THETA_A], theta_b],
+                [y[W_A], self.w_b(y)],
+                [acc_a, acc_b],
+            );
+            (0..3).for_each(|i| e[i] += r[i]);
+        }
+        if d.relief[0].is_some() || d.relief[1].is_some() {
+            let s = self.s_contact(k, y);
+            let (ds, dds) = (f.dir() * g.r_ab * y[W_A], f.dir() * g.r_ab * acc_a);
+            for (w, mode) in [(0, EventFn::ReliefA(k)), (1, EventFn::ReliefB(k))] {
+                let (r, dr, ddr) = d.relief(w, s, self.sign[mode.index()]);
+                e[0] += r;
+                e[1] += dr * ds;
+                e[2] += ddr * ds * ds + dr * dds;
+            }
+        }
+        e
+    }
+
+    /// Penetration of pair k and its rate, given its flank's: with shape deviations its own.
+    #[inline]
+    fn pair_delta(&self, k: usize, y: &State, flank: (f64, f64)) -> (f64, f64) {
+        match self.dev.as_deref() {
+            None => flank,
+            Some(d) => {
+                let e = self.deviation(d, k, y, None);
+                (flank.0 + e[0], flank.1 + e[1])
+            }
+        }
     }
 
     pub fn present(&self, k: usize) -> bool {
@@ -359,7 +443,13 @@ impl Mesh {
     }
 
     pub fn carrying(&self, k: usize) -> bool {
-        self.gated(k) && self.flank_on(slot_flank(k))
+        self.gated(k)
+            && if self.dev.is_some() {
+                self.sign[EventFn::PairPen(k).index()]
+                    && (!self.damped() || self.sign[EventFn::PairRel(k).index()])
+            } else {
+                self.flank_on(slot_flank(k))
+            }
     }
 
     /// Whether any pair carries force, and whether a backward one does (fixed between events).
@@ -439,6 +529,10 @@ impl Mesh {
         let law = self.compliance().expect("compliant");
         let w_b = self.w_b(y);
         let mut m = MeshLoad::default();
+        if let Some(d) = self.dev.as_deref() {
+            self.deviated_pairs(law, d, y, w_b, &mut m, &mut pairs)?;
+            return Ok(m);
+        }
         for f in [Flank::Forward, Flank::Backward] {
             if !self.flank_present(f) || !self.flank_on(f) {
                 continue;
@@ -495,6 +589,37 @@ impl Mesh {
                 .pair_force(law, delta, ddelta, s_a)
                 .map_err(|e| self.out_of_range(f, e))?;
             m.p_param += law.energy_slope(forces.0, s_a) * f.dir() * self.geo.r_ab * y[W_A];
+            self.apply_pair(k, forces, (delta, ddelta), y, w_b, m, pairs);
+        }
+        Ok(())
+    }
+
+    /// Each carrying pair at its own penetration (shape deviations): a force each, and the work
+    /// that the deviations and a position-dependent stiffness do on the pair (booked with the
+    /// external work: the force acts along the line of action only).
+    #[inline(never)]
+    fn deviated_pairs(
+        &self,
+        law: &Law,
+        d: &Deviations,
+        y: &State,
+        w_b: f64,
+        m: &mut MeshLoad,
+        pairs: &mut Option<&mut [(f64, f64, f64); SLOTS]>,
+    ) -> Result<(), LawOutOfRange> {
+        for k in (0..SLOTS).filter(|&k| self.carrying(k)) {
+            let f = slot_flank(k);
+            let flank = self.flank_delta(f, y);
+            let e = self.deviation(d, k, y, None);
+            let (delta, ddelta) = (flank.0 + e[0], flank.1 + e[1]);
+            let s_a = self.s_contact(k, y);
+            let forces = self
+                .pair_force(law, delta, ddelta, s_a)
+                .map_err(|err| self.out_of_range(f, err))?;
+            m.p_param += forces.1 * e[1];
+            if law.depends_on_position() {
+                m.p_param += law.energy_slope(forces.0, s_a) * f.dir() * self.geo.r_ab * y[W_A];
+            }
             self.apply_pair(k, forces, (delta, ddelta), y, w_b, m, pairs);
         }
         Ok(())
@@ -708,12 +833,40 @@ impl Mesh {
         }
         match e {
             EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => self.present[k],
-            EventFn::Pen(f) => self.flank_present(f),
+            EventFn::Pen(f) => self.dev.is_none() && self.flank_present(f),
             // A release matters only while the flank touches; its sign is set afresh at onset.
             EventFn::Rel(f) => {
-                self.flank_present(f) && self.damped() && self.sign[EventFn::Pen(f).index()]
+                self.dev.is_none()
+                    && self.flank_present(f)
+                    && self.damped()
+                    && self.sign[EventFn::Pen(f).index()]
             }
+            // A pair's own modes matter only while it is gated; they are set afresh when it
+            // enters the gate.
+            EventFn::PairPen(k) => self.dev.is_some() && self.gated(k),
+            EventFn::PairRel(k) => {
+                self.dev.is_some()
+                    && self.damped()
+                    && self.gated(k)
+                    && self.sign[EventFn::PairPen(k).index()]
+            }
+            EventFn::ReliefA(k) => self.has_relief(0) && self.gated(k),
+            EventFn::ReliefB(k) => self.has_relief(1) && self.gated(k),
         }
+    }
+
+    fn has_relief(&self, wheel: usize) -> bool {
+        self.dev
+            .as_deref()
+            .is_some_and(|d| d.relief[wheel].is_some())
+    }
+
+    /// Where wheel w's tip relief starts on the line of action (+inf without one).
+    fn relief_start(&self, wheel: usize) -> f64 {
+        self.dev
+            .as_deref()
+            .and_then(|d| d.relief[wheel])
+            .map_or(f64::INFINITY, |r| r.start)
     }
 
     /// Rigid contact: an impact is watched for on a flank that is not locked (with two-sided
@@ -732,6 +885,8 @@ impl Mesh {
                     }
             }
             EventFn::Rel(f) => self.locked() == Some(f),
+            // Shape deviations need a compliant law (Mesh::new).
+            _ => false,
         }
     }
 
@@ -751,6 +906,12 @@ impl Mesh {
             EventFn::Pen(f) => delta(f).0,
             EventFn::Rel(f) if self.rigid() => self.constraint_force(f, y).map_or(-1.0, |c| c.0),
             EventFn::Rel(f) => 1.0 + self.loads.chi * delta(f).1,
+            EventFn::PairPen(k) => self.pair_delta(k, y, delta(slot_flank(k))).0,
+            EventFn::PairRel(k) => {
+                1.0 + self.loads.chi * self.pair_delta(k, y, delta(slot_flank(k))).1
+            }
+            EventFn::ReliefA(k) => self.s_contact(k, y) - self.relief_start(0),
+            EventFn::ReliefB(k) => self.relief_start(1) - self.s_contact(k, y),
         }
     }
 
@@ -811,6 +972,14 @@ impl Mesh {
                 EventFn::Pen(f) => d[f as usize].1,
                 EventFn::Rel(_) if self.rigid() => f64::NAN,
                 EventFn::Rel(f) => self.loads.chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S]),
+                EventFn::PairPen(k) => self.pair_delta(k, y, d[slot_flank(k) as usize]).1,
+                EventFn::PairRel(k) => {
+                    let f = slot_flank(k);
+                    let e = self.deviation(self.dev.as_deref().expect("active"), k, y, Some(dy));
+                    self.loads.chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S] + e[2])
+                }
+                EventFn::ReliefA(k) => slot_flank(k).dir() * travel,
+                EventFn::ReliefB(k) => -slot_flank(k).dir() * travel,
             };
             (margins[i], rates[i]) = if self.sign[i] {
                 (value, rate)
@@ -839,6 +1008,10 @@ impl Mesh {
                 }
                 _ => self.set_sign(e, y),
             }
+        }
+        // A pair's penetration depends on its relief modes: those first.
+        for k in 0..SLOTS {
+            self.set_pair_modes(k, y);
         }
         if self.rigid() {
             self.init_rigid(y);
@@ -869,26 +1042,30 @@ impl Mesh {
     fn set_sign(&mut self, e: EventFn, y: &State) {
         let v = self.event_value(e, y);
         let scale = match e {
-            EventFn::Pen(_) => 1e-7,
-            EventFn::Rel(_) => 1.0,
+            EventFn::Pen(_) | EventFn::PairPen(_) => 1e-7,
+            EventFn::Rel(_) | EventFn::PairRel(_) => 1.0,
             _ => self.geo.p_b,
         };
         let positive = if v.abs() > 1e-9 * scale {
             v > 0.0
         } else {
             let (delta, ddelta) = match e {
-                EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => {
-                    self.flank_delta(slot_flank(k), y)
-                }
                 EventFn::Pen(f) | EventFn::Rel(f) => self.flank_delta(f, y),
+                EventFn::PairPen(k) => self.pair_delta(k, y, self.flank_delta(slot_flank(k), y)),
+                EventFn::Top(k)
+                | EventFn::Bottom(k)
+                | EventFn::Gate(k)
+                | EventFn::PairRel(k)
+                | EventFn::ReliefA(k)
+                | EventFn::ReliefB(k) => self.flank_delta(slot_flank(k), y),
             };
             let ds = |k: usize| slot_flank(k).dir() * self.geo.r_ab * y[W_A];
             let rate = match e {
-                EventFn::Top(k) => -ds(k),
-                EventFn::Bottom(k) => ds(k),
+                EventFn::Top(k) | EventFn::ReliefB(k) => -ds(k),
+                EventFn::Bottom(k) | EventFn::ReliefA(k) => ds(k),
                 EventFn::Gate(k) => ds(k) - if delta > 0.0 { ddelta } else { 0.0 },
-                EventFn::Pen(_) => ddelta,
-                EventFn::Rel(_) => 0.0,
+                EventFn::Pen(_) | EventFn::PairPen(_) => ddelta,
+                EventFn::Rel(_) | EventFn::PairRel(_) => 0.0,
             };
             // At rest on the boundary: the spec's gate and window are closed intervals (>=).
             if rate != 0.0 {
@@ -1025,6 +1202,7 @@ impl Mesh {
         for k in (0..SLOTS).filter(|&k| slot_flank(k) == f && present[k]) {
             self.sigma[k] =
                 contact::wrap_into_window(&self.geo, self.sigma[k], f.dir(), y[THETA_A]);
+            self.update_teeth(k);
             self.set_sign(EventFn::Gate(k), y);
         }
     }
@@ -1055,9 +1233,15 @@ impl Mesh {
             EventFn::Top(k) | EventFn::Bottom(k) => {
                 let down = matches!(e, EventFn::Top(_));
                 self.sigma[k] += if down { -span } else { span };
+                self.update_teeth(k);
                 self.set_sign(EventFn::Gate(k), y);
+                self.set_pair_modes(k, y);
+                let teeth = match self.dev {
+                    Some(_) => format!(", {}", self.teeth_text(k)),
+                    None => String::new(),
+                };
                 format!(
-                    "{} jumps {} pairs {} (s_A now {:.9} m)",
+                    "{} jumps {} pairs {} (s_A now {:.9} m{teeth})",
                     SLOT_NAMES[k],
                     self.geo.m_c,
                     if down { "back" } else { "ahead" },
@@ -1067,10 +1251,50 @@ impl Mesh {
             EventFn::Gate(k) => {
                 self.sign[i] = !self.sign[i];
                 let into = self.sign[i];
+                if into {
+                    self.set_pair_modes(k, y);
+                }
                 format!(
                     "{} {} the contact segment",
                     SLOT_NAMES[k],
                     if into { "enters" } else { "leaves" }
+                )
+            }
+            EventFn::PairPen(k) => {
+                self.sign[i] = !self.sign[i];
+                if self.sign[i] && self.damped() {
+                    self.set_sign(EventFn::PairRel(k), y);
+                }
+                format!(
+                    "{} {} ({})",
+                    SLOT_NAMES[k],
+                    if self.sign[i] { "touches" } else { "separates" },
+                    self.teeth_text(k)
+                )
+            }
+            EventFn::PairRel(k) => {
+                self.sign[i] = !self.sign[i];
+                format!(
+                    "{} {} (damped force reaches 0)",
+                    SLOT_NAMES[k],
+                    if self.sign[i] {
+                        "presses again"
+                    } else {
+                        "releases"
+                    }
+                )
+            }
+            EventFn::ReliefA(k) | EventFn::ReliefB(k) => {
+                self.sign[i] = !self.sign[i];
+                format!(
+                    "{} {} {}'s tip relief",
+                    SLOT_NAMES[k],
+                    if self.sign[i] { "enters" } else { "leaves" },
+                    if matches!(e, EventFn::ReliefA(_)) {
+                        "A"
+                    } else {
+                        "B"
+                    }
                 )
             }
             EventFn::Pen(f) if self.rigid() => self.impact(f, y),
@@ -1111,6 +1335,23 @@ impl Mesh {
         Ok(EventReport { what, smooth })
     }
 
+    /// A pair entering the gate (or jumping into it): its own modes from its state, as at t = 0.
+    fn set_pair_modes(&mut self, k: usize, y: &State) {
+        if self.dev.is_none() || !self.gated(k) {
+            return;
+        }
+        for e in [
+            EventFn::ReliefA(k),
+            EventFn::ReliefB(k),
+            EventFn::PairPen(k),
+        ] {
+            self.set_sign(e, y);
+        }
+        if self.damped() {
+            self.set_sign(EventFn::PairRel(k), y);
+        }
+    }
+
     /// What a rigid mesh's right-hand side depends on besides the state: the locked flank, and
     /// on it which pairs are gated (their friction arms; without friction only that one is, as
     /// the equal split does not enter the motion). A pair switch that keeps them is only
@@ -1143,6 +1384,9 @@ impl Mesh {
             for f in [Flank::Forward, Flank::Backward] {
                 self.set_sign(EventFn::Rel(f), y);
             }
+            for k in 0..SLOTS {
+                self.set_sign(EventFn::PairRel(k), y);
+            }
         }
     }
 
@@ -1153,9 +1397,8 @@ impl Mesh {
         };
         let mut k = 0.0;
         for f in [Flank::Forward, Flank::Backward] {
-            let (delta, _) = self.flank_delta(f, y);
             k += self
-                .per_carrying_pair(f, y, |s| law.stiffness(delta, s))
+                .per_carrying_pair(f, y, |delta, s| law.stiffness(delta, s))
                 .unwrap_or(0.0);
         }
         k
@@ -1176,29 +1419,31 @@ impl Mesh {
             return Ok(e);
         };
         for f in [Flank::Forward, Flank::Backward] {
-            let (delta, _) = self.flank_delta(f, y);
             e += self
-                .per_carrying_pair(f, y, |s| law.energy(delta, s))
+                .per_carrying_pair(f, y, |delta, s| law.energy(delta, s))
                 .map_err(|err| self.out_of_range(f, err))?;
         }
         Ok(e)
     }
 
-    /// The sum of `value(s_A)` over the carrying pairs of flank f: one evaluation for all of
-    /// them when the law does not depend on the position.
+    /// The sum of `value(delta_i, s_A)` over the carrying pairs of flank f: one evaluation for
+    /// all of them when they share delta and the law does not depend on the position.
     fn per_carrying_pair(
         &self,
         f: Flank,
         y: &State,
-        value: impl Fn(f64) -> Result<f64, OutOfRange>,
+        value: impl Fn(f64, f64) -> Result<f64, OutOfRange>,
     ) -> Result<f64, OutOfRange> {
         let slots = (0..SLOTS).filter(|&k| slot_flank(k) == f && self.carrying(k));
-        if self.compliance().is_some_and(|l| l.depends_on_position()) {
-            slots.map(|k| value(self.s_contact(k, y))).sum()
+        let flank = self.flank_delta(f, y);
+        if self.dev.is_some() || self.compliance().is_some_and(|l| l.depends_on_position()) {
+            slots
+                .map(|k| value(self.pair_delta(k, y, flank).0, self.s_contact(k, y)))
+                .sum()
         } else {
             let count = slots.count();
             Ok(if count > 0 {
-                count as f64 * value(0.0)?
+                count as f64 * value(flank.0, 0.0)?
             } else {
                 0.0
             })
@@ -1277,8 +1522,9 @@ impl Mesh {
                 force_on_b[1] += fy;
                 if let Some(law) = law {
                     let fi = f as usize;
-                    if law.depends_on_position() || flank_stiffness[fi].is_none() {
-                        let delta = self.flank_delta(f, y).0;
+                    let own = law.depends_on_position() || self.dev.is_some();
+                    if own || flank_stiffness[fi].is_none() {
+                        let delta = self.pair_delta(k, y, self.flank_delta(f, y)).0;
                         flank_stiffness[fi] = Some(law.stiffness_at_force(pairs[k].2, delta, s[k]));
                     }
                     k_mesh += flank_stiffness[fi].expect("just set");

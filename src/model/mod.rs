@@ -2,6 +2,7 @@
 //! -> right-hand side. The integration driver (`crate::driver`) advances it.
 
 pub mod contact;
+pub mod deviations;
 pub mod geometry;
 pub mod johnson;
 pub mod law;

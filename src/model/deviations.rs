@@ -1,0 +1,314 @@
+//! Shape deviations (tooth-structure.md §2): tip relief, eccentricity (runout) and per-tooth
+//! pitch deviations. Each is a signed length along the line of action added to one pair's
+//! penetration (positive: more penetration), so pairs on a flank no longer share delta.
+//!
+//! Tooth numbering, each wheel in its forward sense (tooth j+1 one pitch ahead of tooth j):
+//! at theta_A = 0, f1 holds teeth A0/B0, f2 A1/B1, b1 A1/B0 (the spec's initial objects), and
+//! one base pitch further along a flank's line of action (larger s_A) holds teeth one lower on
+//! the forward line and one higher on the backward line.
+
+use super::contact::Flank;
+use super::geometry::Geometry;
+use super::ModelError;
+use crate::variables::Params;
+
+/// Tip relief of one wheel: `amount` removed at its tip, over `length` of the line of action.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Relief {
+    pub amount: f64,
+    pub length: f64,
+    /// Where the relief starts on the line of action (A: s_b - length; B: s_a + length).
+    pub start: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Deviations {
+    /// Tip relief of A and of B.
+    pub relief: [Option<Relief>; 2],
+    /// Exponent of the relief: 1 linear, 2 parabolic.
+    pub shape: i32,
+    pub ecc: [f64; 2],
+    pub ecc_phase: [f64; 2],
+    pub pitch: [Vec<f64>; 2],
+    alpha_w: f64,
+}
+
+/// The deviation of one pair and its rate of change.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Offset {
+    pub e: f64,
+    pub rate: f64,
+}
+
+pub const WHEEL: [&str; 2] = ["A", "B"];
+
+/// Parses a pitch-deviation string: comma-separated finite numbers, or empty. `count`, when
+/// given, is the number of teeth it must list.
+pub fn parse_pitch_errors(name: &str, text: &str, count: Option<i32>) -> Result<Vec<f64>, String> {
+    if text.trim().is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut values = Vec::new();
+    for (i, item) in text.split(',').enumerate() {
+        let item = item.trim();
+        let x: f64 = item.parse().map_err(|_| {
+            format!(
+                "parameter {name}: entry {} ('{item}') is not a number",
+                i + 1
+            )
+        })?;
+        if !x.is_finite() {
+            return Err(format!(
+                "parameter {name}: entry {} ('{item}') is not finite",
+                i + 1
+            ));
+        }
+        values.push(x);
+    }
+    if let Some(z) = count {
+        if values.len() != z as usize {
+            return Err(format!(
+                "parameter {name}: {} entries, but the wheel has {z} teeth (one per tooth, or none)",
+                values.len()
+            ));
+        }
+    }
+    Ok(values)
+}
+
+impl Deviations {
+    /// The deviations the parameters ask for; None when there are none (the mesh then costs
+    /// what it did without them).
+    pub fn from_params(p: &Params, g: &Geometry) -> Result<Option<Deviations>, ModelError> {
+        let pitch = [
+            parse_pitch_errors("pitch_errors_A", &p.pitch_errors_A, Some(p.zA)),
+            parse_pitch_errors("pitch_errors_B", &p.pitch_errors_B, Some(p.zB)),
+        ];
+        let [pa, pb] = pitch;
+        let pitch = [pa.map_err(ModelError::new)?, pb.map_err(ModelError::new)?];
+        let relief = |amount: f64, length: f64, start: f64| {
+            (amount > 0.0 && length > 0.0).then_some(Relief {
+                amount,
+                length,
+                start,
+            })
+        };
+        let segment = g.s_b - g.s_a;
+        for (w, length) in [(0, p.tip_relief_length_A), (1, p.tip_relief_length_B)] {
+            if length > segment {
+                return Err(ModelError::new(format!(
+                    "parameter tip_relief_length_{} = {length} m: longer than the contact segment |ab| = {segment} m",
+                    WHEEL[w]
+                )));
+            }
+        }
+        let d = Deviations {
+            relief: [
+                relief(
+                    p.tip_relief_A,
+                    p.tip_relief_length_A,
+                    g.s_b - p.tip_relief_length_A,
+                ),
+                relief(
+                    p.tip_relief_B,
+                    p.tip_relief_length_B,
+                    g.s_a + p.tip_relief_length_B,
+                ),
+            ],
+            shape: p.tip_relief_shape,
+            ecc: [p.ecc_A, p.ecc_B],
+            ecc_phase: [p.ecc_phase_A, p.ecc_phase_B],
+            pitch,
+            alpha_w: g.alpha_w,
+        };
+        let any = d.relief.iter().any(Option::is_some)
+            || d.ecc.iter().any(|&e| e != 0.0)
+            || d.pitch.iter().any(|v| !v.is_empty());
+        Ok(any.then_some(d))
+    }
+
+    /// The pitch deviation of a pair holding A's tooth `teeth.0` and B's tooth `teeth.1`.
+    pub fn pitch_offset(&self, f: Flank, teeth: (i64, i64)) -> f64 {
+        let of = |w: usize, j: i64| {
+            let v = &self.pitch[w];
+            if v.is_empty() {
+                0.0
+            } else {
+                v[j.rem_euclid(v.len() as i64) as usize]
+            }
+        };
+        f.dir() * (of(0, teeth.0) - of(1, teeth.1))
+    }
+
+    /// Tip relief of wheel w at contact coordinate s, with `inside` the recorded mode (the
+    /// relief's expression holds on its side of the start point and is extended smoothly past
+    /// it until the event there is located). Returns e, de/ds and d2e/ds2.
+    pub fn relief(&self, w: usize, s: f64, inside: bool) -> (f64, f64, f64) {
+        let Some(r) = self.relief[w].filter(|_| inside) else {
+            return (0.0, 0.0, 0.0);
+        };
+        // x grows towards the wheel's tip: A's at s_b, B's at s_a.
+        let (x, dx) = if w == 0 {
+            ((s - r.start) / r.length, 1.0 / r.length)
+        } else {
+            ((r.start - s) / r.length, -1.0 / r.length)
+        };
+        if self.shape == 2 {
+            (
+                -r.amount * x * x,
+                -2.0 * r.amount * x * dx,
+                -2.0 * r.amount * dx * dx,
+            )
+        } else {
+            (-r.amount * x, -r.amount * dx, 0.0)
+        }
+    }
+
+    /// Runout of both wheels on flank f at the interface-frame angles and speeds, with its first
+    /// and second time derivatives (`acc`: the wheels' angular accelerations). The centre of
+    /// wheel w sits ecc_w from its axis at paper-frame angle beta (beta_A = -theta_A + phase_A,
+    /// beta_B = theta_B + phase_B); its component along the flank's line of action moves the
+    /// tooth into (A) or out of (B) the contact: forward e = ecc_A sin(alpha_w - beta_A) -
+    /// ecc_B sin(alpha_w - beta_B), backward with alpha_w + beta.
+    pub fn runout(&self, f: Flank, theta: [f64; 2], w: [f64; 2], acc: [f64; 2]) -> [f64; 3] {
+        let dir = f.dir();
+        // Arguments u_A = alpha_w + dir (theta_A - phase_A), u_B = alpha_w - dir (theta_B +
+        // phase_B); e = ecc_A sin u_A - ecc_B sin u_B.
+        let (sa, ca) = (self.alpha_w + dir * (theta[0] - self.ecc_phase[0])).sin_cos();
+        let (sb, cb) = (self.alpha_w - dir * (theta[1] + self.ecc_phase[1])).sin_cos();
+        let [ea, eb] = self.ecc;
+        [
+            ea * sa - eb * sb,
+            dir * (ea * ca * w[0] + eb * cb * w[1]),
+            dir * (ea * (ca * acc[0] - dir * sa * w[0] * w[0])
+                + eb * (cb * acc[1] + dir * sb * w[1] * w[1])),
+        ]
+    }
+
+    pub fn has_runout(&self) -> bool {
+        self.ecc.iter().any(|&e| e != 0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(f: impl FnOnce(&mut Params)) -> (Deviations, Geometry) {
+        let mut p = Params::default();
+        f(&mut p);
+        let g = Geometry::new(&p).unwrap();
+        (Deviations::from_params(&p, &g).unwrap().unwrap(), g)
+    }
+
+    #[test]
+    fn pitch_strings_are_parsed_with_their_positions_named() {
+        assert_eq!(parse_pitch_errors("x", " ", Some(3)), Ok(vec![]));
+        assert_eq!(
+            parse_pitch_errors("x", "1e-6, -2e-6 ,0", Some(3)),
+            Ok(vec![1e-6, -2e-6, 0.0])
+        );
+        let e = parse_pitch_errors("pitch_errors_A", "1e-6, abc, 0", Some(3)).unwrap_err();
+        assert!(e.contains("pitch_errors_A") && e.contains("entry 2") && e.contains("abc"));
+        let e = parse_pitch_errors("pitch_errors_B", "1e-6,inf", None).unwrap_err();
+        assert!(e.contains("entry 2") && e.contains("not finite"));
+        let e = parse_pitch_errors("pitch_errors_B", "1,2", Some(3)).unwrap_err();
+        assert!(e.contains("2 entries") && e.contains("3 teeth"));
+        assert!(parse_pitch_errors("x", "1,,2", None)
+            .unwrap_err()
+            .contains("entry 2"));
+    }
+
+    #[test]
+    fn tip_relief_reaches_its_amount_at_each_tip() {
+        for shape in [1, 2] {
+            let (d, g) = with(|p| {
+                p.tip_relief_A = 1e-5;
+                p.tip_relief_length_A = 2e-3;
+                p.tip_relief_B = 2e-5;
+                p.tip_relief_length_B = 1e-3;
+                p.tip_relief_shape = shape;
+            });
+            // x = 1 at the tip up to the rounding of (s_b - start) / length.
+            assert!((d.relief(0, g.s_b, true).0 + 1e-5).abs() < 1e-19);
+            assert!((d.relief(1, g.s_a, true).0 + 2e-5).abs() < 1e-19);
+            assert_eq!(d.relief(0, g.s_b - 2e-3, true).0, 0.0);
+            assert!(d.relief(1, g.s_a + 1e-3, true).0.abs() < 1e-20);
+            assert_eq!(d.relief(0, g.s_b, false), (0.0, 0.0, 0.0));
+            // The slope by central differences, inside the relief.
+            for w in [0, 1] {
+                let s = if w == 0 { g.s_b - 5e-4 } else { g.s_a + 3e-4 };
+                let h = 1e-7;
+                let fd = (d.relief(w, s + h, true).0 - d.relief(w, s - h, true).0) / (2.0 * h);
+                assert!((fd - d.relief(w, s, true).1).abs() < 1e-9 * fd.abs().max(1e-3));
+            }
+        }
+    }
+
+    /// One revolution of A with B still: e is a sinusoid of amplitude ecc_A on both flanks; and
+    /// the rates match central differences of e along a motion of both wheels.
+    #[test]
+    fn runout_is_a_sinusoid_with_consistent_rates() {
+        let (d, _) = with(|p| {
+            p.ecc_A = 3e-6;
+            p.ecc_phase_A = 0.4;
+            p.ecc_B = 1e-6;
+            p.ecc_phase_B = -1.0;
+        });
+        for f in [Flank::Forward, Flank::Backward] {
+            let (lo, hi) = (0..3600).fold((f64::MAX, f64::MIN), |(lo, hi), i| {
+                let th = i as f64 * std::f64::consts::TAU / 3600.0;
+                let e = d.runout(f, [th, 0.0], [0.0; 2], [0.0; 2])[0];
+                (lo.min(e), hi.max(e))
+            });
+            // B still at theta_B = 0 contributes a constant.
+            let b_part = -1e-6 * (d.alpha_w - f.dir() * -1.0).sin();
+            // Sampling every 0.1 degree misses each peak by at most ecc (1 - cos 0.05 deg).
+            let miss = 3e-6 * (1.0 - (std::f64::consts::PI / 3600.0).cos()) + 1e-20;
+            assert!(((hi - lo) / 2.0 - 3e-6).abs() <= miss, "{f:?}: {hi} {lo}");
+            assert!(((hi + lo) / 2.0 - b_part).abs() <= miss);
+            // theta(t) = theta0 + w t + a t^2 / 2 for both wheels.
+            let (th0, w0, a) = ([0.3, -0.7], [80.0, 55.0], [1e3, -4e2]);
+            let at = |t: f64| {
+                let th = [0, 1].map(|i| th0[i] + w0[i] * t + 0.5 * a[i] * t * t);
+                let w = [0, 1].map(|i| w0[i] + a[i] * t);
+                d.runout(f, th, w, a)
+            };
+            let h = 1e-6;
+            let r = at(0.0);
+            let d1 = (at(h)[0] - at(-h)[0]) / (2.0 * h);
+            let d2 = (at(h)[1] - at(-h)[1]) / (2.0 * h);
+            assert!((d1 - r[1]).abs() < 1e-8 * r[1].abs(), "{d1} {}", r[1]);
+            assert!((d2 - r[2]).abs() < 1e-6 * r[2].abs(), "{d2} {}", r[2]);
+        }
+    }
+
+    #[test]
+    fn pitch_offsets_follow_the_teeth_and_flank() {
+        let (d, _) = with(|p| {
+            p.pitch_errors_A = (0..22)
+                .map(|k| format!("{}e-7", k))
+                .collect::<Vec<_>>()
+                .join(",");
+        });
+        assert_eq!(d.pitch_offset(Flank::Forward, (3, 0)), 3e-7);
+        assert_eq!(d.pitch_offset(Flank::Backward, (3, 5)), -3e-7);
+        assert_eq!(d.pitch_offset(Flank::Forward, (-1, 0)), 21e-7);
+        assert_eq!(d.pitch_offset(Flank::Forward, (23, 0)), 1e-7);
+    }
+
+    #[test]
+    fn nothing_asked_is_none() {
+        let p = Params::default();
+        let g = Geometry::new(&p).unwrap();
+        assert!(Deviations::from_params(&p, &g).unwrap().is_none());
+        let p = Params {
+            tip_relief_A: 1e-5,
+            ..Params::default()
+        };
+        assert!(
+            Deviations::from_params(&p, &g).unwrap().is_none(),
+            "no length, no relief"
+        );
+    }
+}
