@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The loaded static transmission error and mesh stiffness over two mesh cycles (issue 9,
-point 4), contact models 1 and 3: runs `examples/static_te.rs` (exact static balance at each
-wheel position, no dynamics) and writes the CSV and a plot.
+point 4), contact models 1 and 3, each without and with tip relief: runs `examples/static_te.rs`
+(exact static balance at each wheel position, no dynamics) and writes the CSV and a plot. The
+relief is the parameters' (--set tip_relief_A=... ) or the example's textbook long relief.
 
     .venv/bin/python tools/static_te.py [--torque 100] [--out docs/static-te] [-- --set name=value ...]
 """
@@ -29,24 +30,32 @@ def main(argv=None):
     text = subprocess.run(
         ["cargo", "run", "-q", "--release", "--example", "static_te", "--",
          "--torque", str(a.torque), *a.rest],
-        cwd=ROOT, check=True, capture_output=True, text=True).stdout
+        cwd=ROOT, check=True, capture_output=True, text=True)
+    relief_note = text.stderr.strip().splitlines()[-1] if text.stderr.strip() else ""
+    text = text.stdout
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.with_suffix(".csv").write_text(text)
     rows = list(csv.DictReader(io.StringIO(text)))
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for cm, label in (("1", "contact model 1 (Johnson, contact only)"),
-                      ("3", "contact model 3 (tooth structure + Weber)")):
-        r = [x for x in rows if x["contact_model"] == cm]
-        th = [float(x["theta_A"]) for x in r]
-        ax1.plot(th, [1e6 * float(x["static_te"]) for x in r], label=label)
-        ax2.plot(th, [1e-9 * float(x["k_mesh"]) for x in r], label=label)
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    for cm, label, color in (("1", "model 1 (Johnson, contact only)", "C0"),
+                             ("3", "model 3 (tooth structure + Weber)", "C1")):
+        for relief, style in (("0", "-"), ("1", "--")):
+            r = [x for x in rows if x["contact_model"] == cm and x["tip_relief"] == relief]
+            th = [float(x["theta_A"]) for x in r]
+            te = [1e6 * float(x["static_te"]) for x in r]
+            ptp = max(te) - min(te)
+            name = f"{label}, {'tip relief' if relief == '1' else 'no relief'} (p-p {ptp:.2f} um)"
+            ax1.plot(th, te, style, color=color, label=name)
+            ax2.plot(th, [1e-9 * float(x["k_mesh"]) for x in r], style, color=color, label=name)
     ax1.set_ylabel("loaded static TE [um]")
     ax2.set_ylabel("k_mesh [kN/um]")
     ax2.set_xlabel("theta_A [rad] (two mesh cycles)")
-    ax1.set_title(f"Static transmission error at tau_A = {a.torque:g} N.m, exact static balance")
-    ax1.legend(loc="center right")
-    fig.tight_layout()
+    ax1.set_title(f"Static transmission error at tau_A = {a.torque:g} N.m, exact static balance\n"
+                  + relief_note, fontsize=10)
+    handles, labels = ax1.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", fontsize=8, ncol=2)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     fig.savefig(out.with_suffix(".png"), dpi=110)
     print(out.with_suffix(".csv"), out.with_suffix(".png"))
 

@@ -164,6 +164,14 @@ impl Deviations {
         }
     }
 
+    /// Both wheels' tip relief at s, each on the side of its start point that s lies on (the
+    /// static mesh, which has no modes).
+    pub fn tip_relief_at(&self, s: f64) -> f64 {
+        let inside =
+            |w: usize| self.relief[w].is_some_and(|r| (s - r.start) * [1.0, -1.0][w] > 0.0);
+        self.relief(0, s, inside(0)).0 + self.relief(1, s, inside(1)).0
+    }
+
     /// Runout of both wheels on flank f at the interface-frame angles and speeds, with its first
     /// and second time derivatives (`acc`: the wheels' angular accelerations). The centre of
     /// wheel w sits ecc_w from its axis at paper-frame angle beta (beta_A = -theta_A + phase_A,

@@ -18,27 +18,34 @@ pub struct StaticPoint {
     pub tangent: f64,
 }
 
-/// Total force of the pairs at s_A in `pairs` at penetration delta, and its derivative.
-fn total(law: &dyn ContactLaw, pairs: &[f64], delta: f64) -> (f64, f64) {
-    pairs.iter().fold((0.0, 0.0), |(f, k), &s| {
-        (
-            f + law.force(delta, s).unwrap_or(f64::INFINITY),
-            k + law.stiffness(delta, s).unwrap_or(f64::INFINITY),
-        )
-    })
+/// A pair at s_A with its shape deviation e (tip relief): it carries at delta + e > 0.
+type Pair = (f64, f64);
+
+/// Total force of the pairs at penetration delta, its derivative, and how many carry.
+fn total(law: &dyn ContactLaw, pairs: &[Pair], delta: f64) -> (f64, f64, usize) {
+    pairs
+        .iter()
+        .filter(|&&(_, e)| delta + e > 0.0)
+        .fold((0.0, 0.0, 0), |(f, k, n), &(s, e)| {
+            (
+                f + law.force(delta + e, s).unwrap_or(f64::INFINITY),
+                k + law.stiffness(delta + e, s).unwrap_or(f64::INFINITY),
+                n + 1,
+            )
+        })
 }
 
 /// The delta with total force w on these pairs: bisection on a bracket grown from the law's
 /// scale, each step tightened by Newton where it stays inside (the force is increasing and
-/// concave-up in delta, so this converges to rounding).
-fn solve(law: &dyn ContactLaw, pairs: &[f64], w: f64) -> f64 {
+/// concave-up in delta where pairs carry, so this converges to rounding).
+fn solve(law: &dyn ContactLaw, pairs: &[Pair], w: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, law.static_delta(w));
     while total(law, pairs, hi).0 < w {
         (lo, hi) = (hi, 2.0 * hi);
     }
     let mut d = 0.5 * (lo + hi);
     for _ in 0..200 {
-        let (f, k) = total(law, pairs, d);
+        let (f, k, _) = total(law, pairs, d);
         if f > w {
             hi = d;
         } else {
@@ -62,23 +69,37 @@ fn solve(law: &dyn ContactLaw, pairs: &[f64], w: f64) -> f64 {
 /// segment are gated while s_A <= s_b and s_A - delta >= s_a (gear-mesh-model.md §3); a pair
 /// the solution pushes out of the gate is dropped and the balance solved again.
 pub fn balance(law: &dyn ContactLaw, g: &Geometry, s0: f64, w: f64) -> StaticPoint {
-    let mut pairs: Vec<f64> = (-2..=2)
+    balance_with(law, g, s0, w, &|_| 0.0)
+}
+
+/// The same with a shape deviation e(s_A) on every pair (tip relief): each pair carries at
+/// delta + e, and `pairs` counts those that do.
+pub fn balance_with(
+    law: &dyn ContactLaw,
+    g: &Geometry,
+    s0: f64,
+    w: f64,
+    deviation: &dyn Fn(f64) -> f64,
+) -> StaticPoint {
+    let mut pairs: Vec<Pair> = (-2..=2)
         .map(|k| s0 + k as f64 * g.p_b)
         .filter(|&s| s >= g.s_a && s <= g.s_b)
+        .map(|s| (s, deviation(s)))
         .collect();
     loop {
         let delta = solve(law, &pairs, w);
         let before = pairs.len();
         if before > 1 {
-            pairs.retain(|&s| s - delta >= g.s_a);
+            pairs.retain(|&(s, _)| s - delta >= g.s_a);
         }
         if pairs.len() == before || pairs.is_empty() {
+            let (_, tangent, carrying) = total(law, &pairs, delta);
             return StaticPoint {
                 s0,
                 delta,
-                pairs: before,
+                pairs: carrying,
                 secant: w / delta,
-                tangent: total(law, &pairs, delta).1,
+                tangent,
             };
         }
     }
@@ -95,11 +116,16 @@ pub fn cycle(law: &dyn ContactLaw, g: &Geometry, w: f64, n: usize) -> (Vec<Stati
     (points, secant, tangent)
 }
 
+/// The secant stiffness W/delta of one pair at s_A carrying w alone.
+pub fn single_pair_stiffness(law: &dyn ContactLaw, s: f64, w: f64) -> f64 {
+    w / solve(law, &[(s, 0.0)], w)
+}
+
 /// The largest secant stiffness W/delta of a single pair carrying w alone over the
 /// single-contact zone [s_b - p_b, s_a + p_b]: sampled, then refined by golden section.
 pub fn single_pair_peak(law: &dyn ContactLaw, g: &Geometry, w: f64) -> f64 {
     let (lo, hi) = (g.s_b - g.p_b, g.s_a + g.p_b);
-    let k = |s: f64| w / solve(law, &[s], w);
+    let k = |s: f64| single_pair_stiffness(law, s, w);
     let n = 200;
     let at = |i: usize| lo + (hi - lo) * i as f64 / n as f64;
     let best = (0..=n)
@@ -144,7 +170,7 @@ mod tests {
         let s0 = g.s_a + 0.5 * (g.s_b - g.p_b - g.s_a);
         let two = balance(&law, &g, s0, w);
         assert_eq!(two.pairs, 2);
-        let one = solve(&law, &[s0], w / 2.0);
+        let one = solve(&law, &[(s0, 0.0)], w / 2.0);
         assert!(
             (two.delta - one).abs() <= 1e-14 * one,
             "{} vs {one}",
@@ -153,7 +179,36 @@ mod tests {
         let f = law.force(two.delta, s0).unwrap();
         assert!((2.0 * f - w).abs() <= 1e-13 * w);
         let peak = single_pair_peak(&law, &g, w);
-        let mid = w / solve(&law, &[0.5 * (g.s_a + g.s_b)], w);
+        let mid = w / solve(&law, &[(0.5 * (g.s_a + g.s_b), 0.0)], w);
         assert!((peak - mid).abs() <= 1e-12 * mid);
+    }
+
+    /// A pair relieved by more than the balance's penetration carries nothing (the balance is
+    /// the single pair's); relieved by less, the two pairs' forces at delta + e and delta add
+    /// up to W.
+    #[test]
+    fn a_relieved_pair_carries_less_or_nothing() {
+        let p = Params {
+            geometry: 2,
+            ..Params::default()
+        };
+        let g = Geometry::new(&p).unwrap();
+        let law = JohnsonLaw {
+            l: g.l,
+            e_star: g.e_star,
+            width: p.width,
+        };
+        let w = 3e5 * p.width;
+        let s0 = g.s_a + 0.25 * (g.s_b - g.p_b - g.s_a);
+        let relieved = |e: f64| move |s: f64| if s < s0 + 0.5 * g.p_b { e } else { 0.0 };
+        let alone = solve(&law, &[(s0 + g.p_b, 0.0)], w);
+        let deep = balance_with(&law, &g, s0, w, &relieved(-2.0 * alone));
+        assert_eq!(deep.pairs, 1);
+        assert!((deep.delta - alone).abs() <= 1e-14 * alone);
+        let e = -0.3 * alone;
+        let shallow = balance_with(&law, &g, s0, w, &relieved(e));
+        assert_eq!(shallow.pairs, 2);
+        let f = law.force(shallow.delta + e, s0).unwrap() + law.force(shallow.delta, s0).unwrap();
+        assert!((f - w).abs() <= 1e-13 * w, "{f} vs {w}");
     }
 }
