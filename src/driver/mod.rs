@@ -27,6 +27,10 @@ pub trait System {
         rates: &mut [f64; N_EVENTS],
     );
     fn margin(&self, i: usize, y: &State) -> f64;
+    /// The event functions in use, a prefix of the arrays (the rest read as inactive).
+    fn n_events(&self) -> usize {
+        N_EVENTS
+    }
     /// Applies event i at y; the event may change y (an impact changes speeds).
     fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange>;
     /// Checks an accepted state against limits the right-hand side does not see.
@@ -722,40 +726,41 @@ impl Driver {
         };
         // At t0 a margin is >= 0 except when two events coincide and the other one was just
         // handled: it has then crossed at t0 itself, and the root search returns about t0.
-        let m0: [f64; N_EVENTS] = std::array::from_fn(|i| start[i].max(0.0));
-        let slopes: [(f64, f64); N_EVENTS] =
-            std::array::from_fn(|i| (h * start_rate[i], h * end_rate[i]));
+        let m0 = |i: usize| start[i].max(0.0);
+        let slopes = |i: usize| (h * start_rate[i], h * end_rate[i]);
         // The cubic through the ends is the chord plus s(1-s)[(d0 - D)(1-s) - (d1 - D)s],
         // D = m1 - m0: it stays above min(m0, m1) - max(|d0 - D|, |d1 - D|)/4. A margin whose
         // bound stays positive and whose end is positive cannot have crossed; most end here.
-        let may_dip: [bool; N_EVENTS] = std::array::from_fn(|i| {
-            let (d0, d1) = slopes[i];
-            let chord = end[i] - m0[i];
+        let may_dip = |i: usize| {
+            let (d0, d1) = slopes(i);
+            let chord = end[i] - m0(i);
             let dip = 0.25 * (d0 - chord).abs().max((d1 - chord).abs());
-            !(m0[i].min(end[i]) > dip) // NaN rates: unknown, so checked
-        });
-        if !may_dip.iter().any(|&d| d) {
+            !(m0(i).min(end[i]) > dip) // NaN rates: unknown, so checked
+        };
+        let n = sys.n_events();
+        if !(0..n).any(may_dip) {
             self.start = MarginCache(Some((t1, end, end_rate)));
             return None;
         }
         let mut mid = [0.0; N_EVENTS];
         sys.event_margins(&self.method.interpolate(tm), &mut mid);
         let mut best: Option<PendingEvent> = None;
-        for i in (0..N_EVENTS).filter(|&i| may_dip[i] || mid[i] < 0.0) {
-            let (d0, d1) = slopes[i];
+        for i in (0..n).filter(|&i| may_dip(i) || mid[i] < 0.0) {
+            let (d0, d1) = slopes(i);
+            let m0 = m0(i);
             let mut samples = [(tm, mid[i]), (t1, end[i]), (f64::INFINITY, 0.0)];
             let cubic = if d0.is_finite() && d1.is_finite() {
-                hermite_minimum(m0[i], d0, end[i], d1)
+                hermite_minimum(m0, d0, end[i], d1)
             } else {
                 None
             };
             if let Some((s, low)) = cubic {
                 // Sample the margin near the cubic's minimum where it comes within the cubic's
                 // own error at the midpoint (times 4) of zero.
-                let c2 = 3.0 * (end[i] - m0[i]) - 2.0 * d0 - d1;
-                let c3 = 2.0 * (m0[i] - end[i]) + d0 + d1;
-                let at_mid = m0[i] + 0.5 * (d0 + 0.5 * (c2 + 0.5 * c3));
-                let slack = 4.0 * (at_mid - mid[i]).abs() + 1e-3 * (m0[i].abs() + end[i].abs());
+                let c2 = 3.0 * (end[i] - m0) - 2.0 * d0 - d1;
+                let c3 = 2.0 * (m0 - end[i]) + d0 + d1;
+                let at_mid = m0 + 0.5 * (d0 + 0.5 * (c2 + 0.5 * c3));
+                let slack = 4.0 * (at_mid - mid[i]).abs() + 1e-3 * (m0.abs() + end[i].abs());
                 if low <= slack {
                     samples[2] = self.graze_sample(sys, i, t0, h, s, 2.0 * c2 + 6.0 * c3 * s);
                 }
@@ -763,7 +768,7 @@ impl Driver {
             if samples[2].0 < t1 {
                 samples.sort_by(|a, b| a.0.total_cmp(&b.0));
             }
-            let (mut a, mut fa) = (t0, m0[i]);
+            let (mut a, mut fa) = (t0, m0);
             for &(t, m) in samples.iter().filter(|p| p.0.is_finite()) {
                 if m < 0.0 {
                     let t = self.root(sys, i, a, fa, t, m);

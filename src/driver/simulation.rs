@@ -27,6 +27,9 @@ impl System for Mesh {
     fn margin(&self, i: usize, y: &State) -> f64 {
         Mesh::margin(self, crate::model::contact::EventFn::from_index(i), y)
     }
+    fn n_events(&self) -> usize {
+        self.n_event_fns()
+    }
     fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
         Mesh::check_state(self, y)
     }

@@ -61,9 +61,9 @@ pub enum EventFn {
     ReliefB(usize),
 }
 
-/// Index of the first per-pair event (PairPen(0)); four per slot follow.
-const PAIR_EVENTS: usize = 3 * SLOTS + 4;
-pub const N_EVENTS: usize = PAIR_EVENTS + 4 * SLOTS;
+/// The event functions without shape deviations; the per-pair ones (four per slot) follow.
+pub const BASE_EVENTS: usize = 3 * SLOTS + 4;
+pub const N_EVENTS: usize = BASE_EVENTS + 4 * SLOTS;
 
 impl EventFn {
     pub fn index(self) -> usize {
@@ -73,10 +73,10 @@ impl EventFn {
             EventFn::Gate(k) => 3 * k + 2,
             EventFn::Pen(f) => 3 * SLOTS + 2 * f as usize,
             EventFn::Rel(f) => 3 * SLOTS + 2 * f as usize + 1,
-            EventFn::PairPen(k) => PAIR_EVENTS + 4 * k,
-            EventFn::PairRel(k) => PAIR_EVENTS + 4 * k + 1,
-            EventFn::ReliefA(k) => PAIR_EVENTS + 4 * k + 2,
-            EventFn::ReliefB(k) => PAIR_EVENTS + 4 * k + 3,
+            EventFn::PairPen(k) => BASE_EVENTS + 4 * k,
+            EventFn::PairRel(k) => BASE_EVENTS + 4 * k + 1,
+            EventFn::ReliefA(k) => BASE_EVENTS + 4 * k + 2,
+            EventFn::ReliefB(k) => BASE_EVENTS + 4 * k + 3,
         }
     }
 
@@ -94,9 +94,9 @@ impl EventFn {
                 1 => EventFn::Bottom(i / 3),
                 _ => EventFn::Gate(i / 3),
             },
-            i if i >= PAIR_EVENTS => {
-                let k = (i - PAIR_EVENTS) / 4;
-                match (i - PAIR_EVENTS) % 4 {
+            i if i >= BASE_EVENTS => {
+                let k = (i - BASE_EVENTS) / 4;
+                match (i - BASE_EVENTS) % 4 {
                     0 => EventFn::PairPen(k),
                     1 => EventFn::PairRel(k),
                     2 => EventFn::ReliefA(k),
