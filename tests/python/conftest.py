@@ -107,6 +107,8 @@ class Instance:
                 self.slave.setInteger([v.valueReference], [int(value)])
             elif v.type == "Boolean":
                 self.slave.setBoolean([v.valueReference], [bool(value)])
+            elif v.type == "String":
+                self.slave.setString([v.valueReference], [str(value)])
             else:
                 raise TypeError(v.type)
 
@@ -116,6 +118,7 @@ class Instance:
             "Real": self.slave.getReal,
             "Integer": self.slave.getInteger,
             "Boolean": self.slave.getBoolean,
+            "String": self.slave.getString,
         }[v.type]
         return getter([v.valueReference])[0]
 

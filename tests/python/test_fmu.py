@@ -945,3 +945,58 @@ def test_the_tooth_structure_runs_through_fmpy(fmu_path):
         assert (r["F_fwd"] > 0.0).all(), cm
     ratio = tail[3]["dte"].mean() / tail[1]["dte"].mean()
     assert 2.0 < ratio < 4.0, ratio
+
+
+# ---- shape deviations (issue 9, point 3) ------------------------------------------------------
+
+def _bad_deviations():
+    return [
+        ("pitch entry not a number", {"pitch_errors_A": "1e-7, abc"},
+         ["pitch_errors_A", "entry 2", "'abc'", "not a number"]),
+        ("pitch entry not finite", {"pitch_errors_B": "nan"},
+         ["pitch_errors_B", "entry 1", "not finite"]),
+        ("pitch entry empty", {"pitch_errors_A": "1e-7,,2e-7"}, ["pitch_errors_A", "entry 2"]),
+        ("pitch count", {"pitch_errors_B": "1e-7, 2e-7"},
+         ["pitch_errors_B", "2 entries", "33 teeth"]),
+        ("negative tip relief", {"tip_relief_A": -1e-6}, ["tip_relief_A", "-0.000001"]),
+        ("relief longer than the segment", {"tip_relief_B": 1e-5, "tip_relief_length_B": 1.0},
+         ["tip_relief_length_B", "contact segment"]),
+        ("relief shape", {"tip_relief_shape": 3}, ["tip_relief_shape", "3"]),
+        ("infinite eccentricity", {"ecc_A": math.inf}, ["ecc_A", "inf", "finite"]),
+        ("deviations with rigid contact", {"contact_model": 2, "ecc_B": 1e-6},
+         ["contact_model = 2", "shape deviations"]),
+    ]
+
+
+@pytest.mark.parametrize("label,values,words", _bad_deviations(), ids=[c[0] for c in _bad_deviations()])
+def test_bad_shape_deviation_is_rejected(new_instance, reference_run, label, values, words):
+    """fmi2Error at fmi2SetString/-Real/-Integer or at fmi2ExitInitializationMode, with a message
+    naming the parameter and, for the pitch strings, the position of the bad entry."""
+    inst = new_instance()
+    text = " | ".join(rejected_in_initialization(inst, values))
+    for w in words:
+        assert w in text, (w, text)
+    recover(inst, reference_run)
+
+
+def test_pitch_errors_read_back_and_change_the_forces(new_instance):
+    """A String parameter reads back as set; one tooth's pitch error on A changes the forces
+    of the pairs it enters (and only while it is in mesh: mu = chi = 0, so without it the two
+    pairs of the double contact carry equal forces, paper Fig. 9)."""
+    errors = ",".join(["0"] * 5 + ["2e-7"] + ["0"] * 16)
+    inst = new_instance()
+    inst.initialize(pitch_errors_A=errors, **PAPER)
+    assert inst.get("pitch_errors_A") == errors.encode()  # FMPy's getString gives bytes
+    r = arrays(inst.run(0.06, 1e-5, ["F_f1", "F_f2", "n_fwd", "theta_A"]))
+    both = r["n_fwd"] == 2
+    unequal = both & (np.abs(r["F_f1"] - r["F_f2"]) > 1e-3 * np.maximum(r["F_f1"], r["F_f2"]))
+    assert unequal.any(), "tooth A5 makes its pair carry more"
+    # Tooth A5 is in mesh while a forward pair holding it is gated: forward pair k (s_A = s_a +
+    # rAb theta_A - k p_b) holds A's tooth -k, so A5 sits at s_A = s_a + rAb theta_A + 5 p_b
+    # (mod zA p_b), and it is gated while that lies in [s_a, s_b] (the gate's delta ~ 1e-6 m is
+    # a rounding of this window here: grant one output step of travel).
+    s = VECTORS["s_a"] + RAB * r["theta_A"] + 5 * VECTORS["base_pitch"]
+    s = VECTORS["s_a"] + np.mod(s - VECTORS["s_a"], ZA * VECTORS["base_pitch"])
+    travel = RAB * 110.0 * 1e-5
+    in_mesh = (s >= VECTORS["s_a"] - travel) & (s <= VECTORS["s_b"] + travel)
+    assert np.all(in_mesh[unequal]), "the forces differ only while tooth A5 is in mesh"
