@@ -67,7 +67,7 @@ UNITS = {
     "theta_A": "rad", "theta_B": "rad", "w_A": "rad/s", "w_B": "rad/s", "dte": "m",
     "F_f1": "N", "F_f2": "N", "F_b1": "N", "F_b2": "N", "F_fwd": "N", "F_bwd": "N",
     "n_fwd": "", "n_bwd": "", "tau_mesh_A": "N.m", "tau_mesh_B": "N.m", "P_loss": "W",
-    "F_B_x": "N", "F_B_y": "N",
+    "F_B_x": "N", "F_B_y": "N", "k_mesh": "N/m", "load_share": "",
     "mean_w_A": "rad/s", "mean_w_B": "rad/s", "mean_w_A_over_w_B": "", "rms_dte": "m",
     "max_dte": "m", "min_dte": "m", "impacts_per_mesh_cycle": "",
     "flank_switches_per_mesh_cycle": "", "switching_time": "s",
@@ -95,6 +95,15 @@ def format_start_value(value):
         return "true" if value else "false"
     if isinstance(value, int):
         return str(value)
+    if isinstance(value, str):
+        # String parameter (e.g. pitch_errors_A = "1.2e-07, -3e-08, ..."): one argv element,
+        # passed to fmi2SetString unchanged (subprocess does not split it; fmpy's CLI converts a
+        # String variable's value with str()).  argparse would take a value that starts with
+        # '-' and contains no space for an option; a leading space keeps it a value (the list
+        # is parsed with surrounding whitespace allowed, as in "1e-07, 2e-07").
+        if value.startswith("-") and " " not in value:
+            return " " + value
+        return value
     return repr(float(value))  # shortest repr that round-trips: no precision lost
 
 
@@ -114,7 +123,10 @@ def fmpy_command(fmu, scene, output_file, rel_tol=None):
         cmd += ["--input-file", str(SCENES_DIR / scene["input_file"])]
     if rel_tol is not None:
         cmd += ["--relative-tolerance", repr(float(rel_tol))]
-    cmd += ["--output-variables", *OUTPUTS, "--output-file", str(output_file)]
+    # compared variables that are not in the common list (k_mesh, load_share of the per-pair
+    # mesh) are requested too
+    extra = [v for v in scene.get("compare", {}).get("variables", []) if v not in OUTPUTS]
+    cmd += ["--output-variables", *OUTPUTS, *extra, "--output-file", str(output_file)]
     return cmd
 
 

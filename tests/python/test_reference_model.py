@@ -23,6 +23,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 from reference_model import gearmesh_ref as G  # noqa: E402
+from reference_model import deviations_ref as D  # noqa: E402
 
 # ------------------------------------------------------------------------------ test vectors
 # (name, printed value) from /work/shared/spec/test-vectors.md, backlash = 1e-4 m
@@ -486,6 +487,8 @@ def test_scene_files(name):
     with open(path) as f:
         head = f.readline().strip()
     expected = list(G.OUTPUT_NAMES)
+    if G.GearMesh(sc.get("start_values", {})).dev_mesh is not None:
+        expected += D.EXTRA_OUTPUT_NAMES         # contact model 3 / deviations: k_mesh, load_share
     if sc.get("start_values", {}).get("contact_model", 1) == 2:
         expected += G.BEARING_OUTPUT_NAMES       # rigid scenes also carry F_B_x, F_B_y
     assert head == ",".join(f'"{n}"' for n in expected)

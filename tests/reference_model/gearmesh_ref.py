@@ -47,8 +47,12 @@ fmi-interface.md, built *differently* from an object-tracking implementation:
 
 contact_model = 2 (rigid contact, rig-and-modes.md section 2, without slider and housing motion)
 is the separate class RigidMesh below (GearMesh.simulate dispatches to it); contact_model = 1
-runs exactly the code above.  Both can append the outputs F_B_x, F_B_y (mesh force on B in the
-paper frame, rig-and-modes.md section 1; simulate(bearing_force=...), default: rigid only).
+runs exactly the code above.  contact_model = 3 and the shape deviations (tooth-structure.md
+sections 1-2: a penetration and force per pair) are deviations_ref.DevMesh, built on the same
+pair enumeration and state; with contact model 1 and every deviation off (the defaults) it is
+not used, so the traces of the base scenes do not change.  All can append the outputs F_B_x,
+F_B_y (mesh force on B in the paper frame, rig-and-modes.md section 1;
+simulate(bearing_force=...), default: rigid only).
 
 Readings of the spec where it leaves room (each is marked where it is implemented):
 * gate ties at a restart count as inside (closed gate, the spec's ">="); an exact equilibrium
@@ -72,6 +76,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 E_NUM = math.e
+# brentq's smallest admissible relative tolerance (4 eps; scipy rejects 4e-16 with ValueError)
+BRENT_RTOL = 4.0 * np.finfo(float).eps
 INV_E = 1.0 / math.e
 
 OUTPUT_NAMES = [
@@ -100,10 +106,17 @@ DEFAULTS = {
     "tau_A": 0.0, "tau_B": 0.0,
     "solver": 1, "rel_tol": 1e-6,
     "contact_model": 1, "restitution": 0.0,
+    # contact model 3 (tooth-structure.md section 1); bore radius 0 = half the root radius
+    "dedendum": 1.25, "rack_tip_radius": 0.38, "bore_radius_A": 0.0, "bore_radius_B": 0.0,
+    # shape deviations (tooth-structure.md section 2), all off by default
+    "tip_relief_A": 0.0, "tip_relief_length_A": 0.0, "tip_relief_B": 0.0, "tip_relief_length_B": 0.0,
+    "tip_relief_shape": 1, "ecc_A": 0.0, "ecc_B": 0.0, "ecc_phase_A": 0.0, "ecc_phase_B": 0.0,
+    "pitch_errors_A": "", "pitch_errors_B": "",
 }
 INTEGER_PARAMS = {"geometry", "zA_nominal", "zB_nominal", "zA", "zB", "contacts_per_flank", "solver",
-                  "contact_model"}
+                  "contact_model", "tip_relief_shape"}
 BOOLEAN_PARAMS = {"backward_contacts"}
+STRING_PARAMS = {"pitch_errors_A", "pitch_errors_B"}
 
 
 class GeometryError(ValueError):
@@ -203,6 +216,9 @@ def make_params(start_values: dict | None = None) -> dict:
         if k in BOOLEAN_PARAMS:
             if not isinstance(v, bool):
                 raise TypeError(f"{k} must be a boolean")
+        elif k in STRING_PARAMS:
+            if not isinstance(v, str):
+                raise TypeError(f"{k} must be a string")
         elif k in INTEGER_PARAMS:
             if int(v) != v:
                 raise TypeError(f"{k} must be an integer")
@@ -422,11 +438,19 @@ class GearMesh:
     def __init__(self, start_values: dict | None = None):
         self.p = make_params(start_values)
         self.g = Geometry(self.p)
-        if self.p["contact_model"] not in (1, 2):
-            raise ValueError(f"contact_model must be 1 (Johnson) or 2 (rigid) in this reference, "
+        if self.p["contact_model"] not in (1, 2, 3):
+            raise ValueError(f"contact_model must be 1 (Johnson), 2 (rigid) or 3 (tooth structure), "
                              f"got {self.p['contact_model']}")
         if not 0.0 <= self.p["restitution"] <= 1.0:
             raise ValueError(f"restitution must lie in [0, 1], got {self.p['restitution']!r}")
+        from . import deviations_ref as D
+        self.deviations = D.deviations_active(self.p)
+        if self.deviations and self.p["contact_model"] == 2:
+            raise ValueError("shape deviations are not implemented for rigid contact in this reference")
+        # contact model 3 or shape deviations: the per-pair mesh of deviations_ref (DevMesh);
+        # contact model 1 without deviations keeps the code below, unchanged
+        self.dev_mesh = (D.DevMesh(self) if self.p["contact_model"] == 3 or self.deviations
+                         else None)
 
     # ---------------------------------------------------------------- mesh forces
     def _mesh(self, uA, e, wA, v, kf, kb, detail=False):
@@ -723,7 +747,7 @@ class GearMesh:
             best = te
             for fn in bad:
                 if fn(t_lo, sol.sol(t_lo)) > 0.0:
-                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, te, xtol=1e-16, rtol=4e-16)
+                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, te, xtol=1e-16, rtol=BRENT_RTOL)
                     best = min(best, tc)
             return best
         return None
@@ -789,12 +813,20 @@ class GearMesh:
 
     def simulate(self, stop_time, output_interval, inputs: InputTable | None = None,
                  rtol=1e-10, method="DOP853", energy=False, max_restarts=2_000_000,
-                 perturb_w_A=0.0, y0=None, bearing_force=None):
+                 perturb_w_A=0.0, y0=None, bearing_force=None, per_pair=False):
         """Integrate over [0, stop_time]; sample on k*output_interval and at every event.
 
-        bearing_force: append the outputs F_B_x, F_B_y (default: only with contact_model = 2)."""
+        bearing_force: append the outputs F_B_x, F_B_y (default: only with contact_model = 2).
+        contact_model = 3 or shape deviations run deviations_ref.DevMesh (outputs also k_mesh and
+        load_share); per_pair = True forces it for contact model 1 without deviations (tests)."""
         if bearing_force is None:
             bearing_force = self.p["contact_model"] == 2
+        if self.dev_mesh is not None or per_pair:
+            from . import deviations_ref as D
+            dm = self.dev_mesh if self.dev_mesh is not None else D.DevMesh(self)
+            return dm.simulate(stop_time, output_interval, inputs, rtol=rtol, method=method,
+                               energy=energy, max_restarts=max_restarts, perturb_w_A=perturb_w_A,
+                               y0=y0, bearing_force=bearing_force)
         if self.p["contact_model"] == 2:
             if energy:
                 raise NotImplementedError("energy bookkeeping is for contact_model = 1 only")
@@ -1404,7 +1436,7 @@ class RigidMesh:
             best, which = tr, bad[0]
             for fn in bad:
                 if fn(t_lo, sol.sol(t_lo)) > 0.0:
-                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, tr, xtol=1e-16, rtol=4e-16)
+                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, tr, xtol=1e-16, rtol=BRENT_RTOL)
                     if tc < best:
                         best, which = tc, fn
             return best, which
@@ -1577,7 +1609,17 @@ def scene_model(scene):
     return model, inputs
 
 
-def run_scene(scene, rtol=1e-10, method="DOP853", perturb_rel=0.0):
+REF_RTOL = 1e-10    # the reference traces' integration tolerance (a scene may set reference_rtol)
+
+
+def scene_reference_rtol(scene):
+    """rtol of a scene's reference trace: its top-level reference_rtol, else REF_RTOL."""
+    return float(scene.get("reference_rtol", REF_RTOL))
+
+
+def run_scene(scene, rtol=None, method="DOP853", perturb_rel=0.0):
+    if rtol is None:
+        rtol = scene_reference_rtol(scene)
     model, inputs = scene_model(scene)
     dw = perturb_rel * max(abs(model.p["w_A_start"]), 1.0)
     return model.simulate(scene["stop_time"], scene["output_interval"], inputs, rtol=rtol,
