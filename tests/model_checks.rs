@@ -90,21 +90,34 @@ fn static_load_single_and_double_contact() {
     }
 }
 
-/// Gated pairs on one flank share delta, so their forces are computed from the same numbers and
-/// are bit-identical (paper Fig. 9), also while the undamped mesh rattles.
+/// Gated pairs on one flank share delta (paper Fig. 9), also while the undamped mesh rattles:
+/// each pair's force, checked on its own against the test's Johnson law (the penetration that
+/// carries it, tests/common), is the one at dte, so the two are equal because each is right.
+/// The fixed point converges to rounding and d ln N / d ln delta ~ 1.07: 1e-9 relative is far
+/// above both roundings.
 #[test]
 fn pairs_in_double_contact_carry_equal_forces() {
     let (p, i) = paper(0.0);
+    let g = Geometry::new(&p).unwrap();
     let out = run(&p, &i, 1e-6, 1e-5, 0.05);
-    let double: Vec<&Outputs> = out.iter().filter(|o| o.n_fwd == 2).collect();
+    let double: Vec<&Outputs> = out
+        .iter()
+        .filter(|o| o.n_fwd == 2 && o.dte > 1e-8)
+        .collect();
     assert!(
         double.len() > 50,
         "double contact occurs ({} samples)",
         double.len()
     );
     for o in double {
-        assert_eq!(o.F_f1, o.F_f2);
-        assert!(o.F_f1 > 0.0);
+        for f in [o.F_f1, o.F_f2] {
+            let delta = static_delta(f / p.width, &g);
+            assert!(
+                (delta - o.dte).abs() <= 1e-9 * o.dte,
+                "{delta} vs {}",
+                o.dte
+            );
+        }
     }
 }
 
