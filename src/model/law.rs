@@ -24,6 +24,11 @@ pub trait ContactLaw {
     /// is work done on the pair by its changing stiffness (parametric excitation), booked with
     /// the external work.
     fn energy_slope(&self, force: f64, s_a: f64) -> f64;
+    /// The force and `energy_slope` together (a position-dependent law looks s_A up once).
+    fn force_and_slope(&self, delta: f64, s_a: f64) -> Result<(f64, f64), OutOfRange> {
+        let f = self.force(delta, s_a)?;
+        Ok((f, self.energy_slope(f, s_a)))
+    }
     /// Whether force, stiffness and energy depend on s_A (else one evaluation per flank serves
     /// all its pairs).
     fn depends_on_position(&self) -> bool;
@@ -120,6 +125,10 @@ impl ContactLaw for Law {
     #[inline]
     fn energy_slope(&self, force: f64, s_a: f64) -> f64 {
         dispatch!(self, l => l.energy_slope(force, s_a))
+    }
+    #[inline]
+    fn force_and_slope(&self, delta: f64, s_a: f64) -> Result<(f64, f64), OutOfRange> {
+        dispatch!(self, l => l.force_and_slope(delta, s_a))
     }
     #[inline]
     fn depends_on_position(&self) -> bool {

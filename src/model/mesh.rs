@@ -585,10 +585,11 @@ impl Mesh {
         let (delta, ddelta) = self.flank_delta(f, y);
         for k in gated {
             let s_a = self.s_contact(k, y);
-            let forces = self
-                .pair_force(law, delta, ddelta, s_a)
+            let (n, slope) = law
+                .force_and_slope(delta, s_a)
                 .map_err(|e| self.out_of_range(f, e))?;
-            m.p_param += law.energy_slope(forces.0, s_a) * f.dir() * self.geo.r_ab * y[W_A];
+            m.p_param += slope * f.dir() * self.geo.r_ab * y[W_A];
+            let forces = (n, n * (1.0 + self.loads.chi * ddelta));
             self.apply_pair(k, forces, (delta, ddelta), y, w_b, m, pairs);
         }
         Ok(())

@@ -267,10 +267,14 @@ impl Structure {
 /// x = pi b E* delta / C, so F = -pi b E* delta / W_{-1}(-x); None past the law's range x < 1/e.
 pub fn force(delta: f64, ln_c: f64, width: f64, e_star: f64) -> Option<f64> {
     let pbe_delta = PI * width * e_star * delta;
-    if delta == 0.0 {
+    force_at(pbe_delta, pbe_delta * (-ln_c).exp())
+}
+
+/// The same from pi b E* delta and x.
+fn force_at(pbe_delta: f64, x: f64) -> Option<f64> {
+    if pbe_delta == 0.0 {
         return Some(0.0);
     }
-    let x = pbe_delta * (-ln_c).exp();
     if !(x < 1.0 / std::f64::consts::E) {
         return None;
     }
@@ -304,18 +308,19 @@ pub fn structure_law(p: &Params, g: &Geometry) -> Result<StructureLaw, ModelErro
     StructureLaw::new(structure, g.s_a, g.s_b)
 }
 
-/// ln C(s_A) on the contact segment, fitted at initialization: piecewise polynomials of degree
-/// `DEGREE` (Chebyshev interpolation on each piece, kept in power form for Horner's rule: the
-/// right-hand side evaluates it for every pair, and one Chebyshev series over the whole segment
-/// needed 32-64 terms, a serial chain of 4x the latency). ln C is analytic on the segment; the
-/// pieces are halved until the fit agrees with the exact value to `LN_C_TOLERANCE` midway
-/// between the nodes and at the ends of every piece. An error e in ln C moves a pair's force
+/// A function of s_A on the contact segment (C(s_mid)/C(s_A) for contact model 3), fitted at
+/// initialization: piecewise polynomials of degree `DEGREE` (Chebyshev interpolation on each
+/// piece, kept in power form for Horner's rule: the right-hand side evaluates it for every pair,
+/// and one Chebyshev series over the whole segment needed 32-64 terms, a serial chain of 4x the
+/// latency). C is analytic on the segment; the pieces are halved until the fit's relative error
+/// midway between the nodes and at the ends of every piece is below `LN_C_TOLERANCE`, which is
+/// the error of ln C it implies. An error e in ln C moves a pair's force
 /// by e / (ln C - ln F - 1), ln C - ln F - 1 being about 30 on steel gears (and above 1 inside
 /// the law's range): 1e-11 moves forces by about 3e-13, below the integrator's error at any
 /// rel_tol from 1e-12 on. (The exact ln C itself is a quadrature whose rounding is ~1e-13.)
 #[derive(Clone, Debug, PartialEq)]
-pub struct LnCTable {
-    /// Spans between the kinks of ln C (where Sainsot's u_f reaches 0 and is held there), each
+pub struct PiecewiseFit {
+    /// Spans between the kinks of C (where Sainsot's u_f reaches 0 and is held there), each
     /// fitted on its own: a polynomial piece across a kink would converge only linearly.
     spans: Vec<Span>,
     /// The largest difference from the exact ln C found by the check.
@@ -337,14 +342,14 @@ struct Span {
 pub const LN_C_TOLERANCE: f64 = 1e-11;
 const DEGREE: usize = 7;
 
-impl LnCTable {
+impl PiecewiseFit {
     /// Fits ln C on [lo, hi] with breaks at `kinks` (those inside are used).
     pub fn new(
         f: &dyn Fn(f64) -> f64,
         lo: f64,
         hi: f64,
         kinks: &[f64],
-    ) -> Result<LnCTable, ModelError> {
+    ) -> Result<PiecewiseFit, ModelError> {
         let mut cuts: Vec<f64> = kinks
             .iter()
             .cloned()
@@ -369,7 +374,7 @@ impl LnCTable {
             })
             .collect::<Result<Vec<Span>, ModelError>>()?;
         let error = spans.iter().map(|s| s.error).fold(0.0, f64::max);
-        Ok(LnCTable { spans, error })
+        Ok(PiecewiseFit { spans, error })
     }
 
     /// The number of polynomial pieces.
@@ -390,6 +395,11 @@ impl LnCTable {
 
     pub fn derivative(&self, s: f64) -> f64 {
         self.span(s).derivative(s)
+    }
+
+    /// Both at once, from one lookup of the piece.
+    pub fn value_and_derivative(&self, s: f64) -> (f64, f64) {
+        self.span(s).value_and_derivative(s)
     }
 }
 
@@ -467,16 +477,20 @@ impl Span {
                 let u = (PI * j as f64 / N as f64).cos() * (1.0 - 1e-12);
                 lo + (i as f64 + 0.5 + 0.5 * u) * width
             })
-            .map(|s| (t.value(s) - f(s)).abs())
+            .map(|s| ((t.value(s) - f(s)) / f(s)).abs())
             .fold(0.0, f64::max);
         t
     }
 
-    /// The piece of s (the end pieces extend beyond the table) and u in it.
+    /// The piece of s and u in it; beyond the table's ends the end values hold (a polynomial
+    /// piece extrapolated far could change sign, and stages of a step that carries a pair past
+    /// s_b, before its event is located, reach there).
     fn locate(&self, s: f64) -> (&[f64; DEGREE + 1], f64) {
         let x = (s - self.lo) * self.scale;
-        let i = (x.floor().max(0.0) as usize).min(self.coef.len() - 1);
-        (&self.coef[i], 2.0 * (x - i as f64) - 1.0)
+        // Truncation is the floor for x >= 0 (and takes NaN to 0), without a call to libm's
+        // floor, which the baseline x86-64 target does not inline.
+        let i = (x.max(0.0) as usize).min(self.coef.len() - 1);
+        (&self.coef[i], (2.0 * (x - i as f64) - 1.0).clamp(-1.0, 1.0))
     }
 
     fn value(&self, s: f64) -> f64 {
@@ -485,23 +499,32 @@ impl Span {
     }
 
     fn derivative(&self, s: f64) -> f64 {
+        self.value_and_derivative(s).1
+    }
+
+    fn value_and_derivative(&self, s: f64) -> (f64, f64) {
         let (c, u) = self.locate(s);
+        let v = c.iter().rev().fold(0.0, |acc, &ck| acc * u + ck);
         let d = (1..=DEGREE)
             .rev()
             .fold(0.0, |acc, k| acc * u + k as f64 * c[k]);
-        2.0 * self.scale * d
+        (v, 2.0 * self.scale * d)
     }
 }
 
-/// Contact model 3 as a `ContactLaw`: the closed form with ln C from the table.
+/// Contact model 3 as a `ContactLaw`: the closed form with C from the table.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StructureLaw {
     pub structure: Structure,
-    pub table: LnCTable,
+    /// g(s_A) = C(s_mid) / C(s_A): the force needs x = pi b E* delta / C, so tabulating 1/C
+    /// rather than ln C saves an exp per pair (benches/rhs_cost.rs).
+    pub inv_c: PiecewiseFit,
     /// pi b E*.
     p: f64,
-    /// ln C at the segment's middle (for scales).
+    /// ln C at the segment's middle.
     ln_c_mid: f64,
+    /// pi b E* / C(s_mid): x = delta * x_scale * g.
+    x_scale: f64,
 }
 
 impl StructureLaw {
@@ -514,15 +537,26 @@ impl StructureLaw {
             structure.b.u_f_zero().map(|k| k.map(|s| structure.l - s)),
         ];
         let kinks: Vec<f64> = kinks.iter().flatten().flatten().cloned().collect();
-        let table = LnCTable::new(&|s| structure.ln_c(s), s_a - pad, s_b + pad, &kinks)?;
+        let ln_c_mid = structure.ln_c(0.5 * (s_a + s_b));
+        let inv_c = PiecewiseFit::new(
+            &|s| (ln_c_mid - structure.ln_c(s)).exp(),
+            s_a - pad,
+            s_b + pad,
+            &kinks,
+        )?;
         let p = PI * structure.width * structure.e_star;
-        let ln_c_mid = table.value(0.5 * (s_a + s_b));
         Ok(StructureLaw {
             structure,
-            table,
+            inv_c,
             p,
             ln_c_mid,
+            x_scale: p * (-ln_c_mid).exp(),
         })
+    }
+
+    /// ln C at s_A, from the table.
+    pub fn ln_c(&self, s_a: f64) -> f64 {
+        self.ln_c_mid - self.inv_c.value(s_a).ln()
     }
 
     /// Sainsot's fit holds for u_f >= 0; where the active profile reaches contacts with
@@ -546,37 +580,39 @@ impl StructureLaw {
             .collect()
     }
 
-    /// (F, ln C) at |delta|, or the range error.
-    fn solve(&self, delta: f64, s_a: f64) -> Result<(f64, f64), OutOfRange> {
-        let ln_c = self.table.value(s_a);
+    /// F at |delta|, or the range error.
+    fn solve(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
+        self.solve_at(delta, self.inv_c.value(s_a))
+    }
+
+    /// The same given g = C(s_mid)/C(s_A).
+    fn solve_at(&self, delta: f64, g: f64) -> Result<f64, OutOfRange> {
         let d = delta.abs();
-        match force(d, ln_c, self.structure.width, self.structure.e_star) {
-            Some(f) => Ok((f, ln_c)),
-            None => Err(OutOfRange {
-                delta: d,
-                limit: (ln_c - 1.0).exp() / self.p,
-            }),
-        }
+        force_at(self.p * d, d * self.x_scale * g).ok_or_else(|| OutOfRange {
+            delta: d,
+            // x = 1/e.
+            limit: 1.0 / (std::f64::consts::E * self.x_scale * g),
+        })
     }
 }
 
 impl ContactLaw for StructureLaw {
     /// The odd continuation below 0, as Johnson's (see `johnson::force`).
     fn force(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
-        Ok(delta.signum() * self.solve(delta, s_a)?.0)
+        Ok(delta.signum() * self.solve(delta, s_a)?)
     }
     /// d(delta)/dF = (ln C - ln F - 1)/(pi b E*); 0 at delta = 0 (the log singularity).
     fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
-        let (f, ln_c) = self.solve(delta, s_a)?;
+        let f = self.solve(delta, s_a)?;
         Ok(if f > 0.0 {
-            self.p / (ln_c - f.ln() - 1.0)
+            self.p / (self.ln_c(s_a) - f.ln() - 1.0)
         } else {
             0.0
         })
     }
     fn stiffness_at_force(&self, force: f64, _delta: f64, s_a: f64) -> f64 {
         if force > 0.0 {
-            self.p / (self.table.value(s_a) - force.ln() - 1.0)
+            self.p / (self.ln_c(s_a) - force.ln() - 1.0)
         } else {
             0.0
         }
@@ -584,13 +620,19 @@ impl ContactLaw for StructureLaw {
     /// U = F delta/2 - F^2/(4 pi b E*), from U = F delta - int delta dF.
     fn energy(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
         let d = delta.max(0.0);
-        let (f, _) = self.solve(d, s_a)?;
+        let f = self.solve(d, s_a)?;
         Ok(f * d / 2.0 - f * f / (4.0 * self.p))
     }
-    /// dU/d(ln C) at fixed delta is -F^2/(2 pi b E*).
+    /// dU/d(ln C) at fixed delta is -F^2/(2 pi b E*), and d(ln C)/ds = -g'/g.
     fn energy_slope(&self, force: f64, s_a: f64) -> f64 {
         let f = force.max(0.0);
-        -f * f / (2.0 * self.p) * self.table.derivative(s_a)
+        let (g, dg) = self.inv_c.value_and_derivative(s_a);
+        f * f / (2.0 * self.p) * dg / g
+    }
+    fn force_and_slope(&self, delta: f64, s_a: f64) -> Result<(f64, f64), OutOfRange> {
+        let (g, dg) = self.inv_c.value_and_derivative(s_a);
+        let f = self.solve_at(delta, g)?;
+        Ok((delta.signum() * f, f * f / (2.0 * self.p) * dg / g))
     }
     fn depends_on_position(&self) -> bool {
         true

@@ -1,0 +1,86 @@
+//! The right-hand side of contact model 3 against contact model 1's (issue 9, point 1: at most
+//! 1.2 times), on the standard pair (geometry 2, 22/33, module 10 mm) at states along one mesh
+//! cycle of a loaded, damped run with friction: `Mesh::rhs` alone, both models in the same
+//! process, interleaved, medians of repeated timings.
+//!
+//! Run: `cargo bench --bench rhs_cost`.
+
+use spur_gear_mesh::model::mesh::{DTE, THETA_A};
+use spur_gear_mesh::model::{Mesh, State, NY};
+use spur_gear_mesh::variables::{Inputs, Params};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Mesh and states at 64 positions over the double-contact zone (f1 from s_a, f2 a pitch ahead,
+/// until f2 reaches s_b), at a penetration of the load's order: two pairs carry, the case where
+/// contact model 3 does twice the per-pair work of Johnson's one evaluation per flank.
+fn setup(contact_model: i32) -> (Mesh, Vec<State>) {
+    let p = Params {
+        geometry: 2,
+        contact_model,
+        chi: 0.2,
+        mu: 0.05,
+        w_A_start: 100.0,
+        w_B_start: 100.0 / 1.5,
+        ..Params::default()
+    };
+    let i = Inputs {
+        tau_A: 1000.0,
+        ..Inputs::default()
+    };
+    let delta = 6e-6;
+    let p = Params {
+        dte_start: delta,
+        ..p
+    };
+    let (mesh, y0) = Mesh::new(&p, &i).unwrap();
+    let g = &mesh.geo;
+    let states = (0..64)
+        .map(|k| {
+            let mut y = y0;
+            y[THETA_A] += k as f64 / 64.0 * (g.s_b - g.s_a - g.p_b) / g.r_ab;
+            y[DTE] = delta;
+            y
+        })
+        .collect();
+    (mesh, states)
+}
+
+fn time(mesh: &Mesh, states: &[State], reps: usize) -> f64 {
+    let mut dy = [0.0; NY];
+    let start = Instant::now();
+    for _ in 0..reps {
+        for y in states {
+            mesh.rhs(black_box(y), &mut dy).unwrap();
+            black_box(&dy);
+        }
+    }
+    start.elapsed().as_secs_f64() * 1e9 / (reps * states.len()) as f64
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let (m1, s1) = setup(1);
+    let (m3, s3) = setup(3);
+    let (mut t1, mut t3, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..41 {
+        let a = time(&m1, &s1, 2000);
+        let b = time(&m3, &s3, 2000);
+        t1.push(a);
+        t3.push(b);
+        ratio.push(b / a);
+    }
+    println!("Mesh::rhs, standard pair 22/33, module 10 mm, damped, friction, 41 interleaved repetitions");
+    println!(
+        "contact model 1: {:.1} ns, contact model 3: {:.1} ns, model 3 / model 1: {:.2} (median of per-pair ratios; min {:.2}, max {:.2})",
+        median(t1),
+        median(t3),
+        median(ratio.clone()),
+        ratio.iter().cloned().fold(f64::INFINITY, f64::min),
+        ratio.iter().cloned().fold(0.0, f64::max)
+    );
+}
