@@ -4,12 +4,13 @@
 
 #![allow(non_snake_case, clippy::missing_safety_doc)]
 
-use crate::controller::{reference, Params, Pi};
-use crate::variables::{guid, Causality, Id, Type, LOG_CATEGORIES, MODEL_NAME, VARS};
+use crate::controller::{self, reference, Pi};
+use crate::variables::{
+    Causality, Inputs, Params, Var, VarType, GUID, LOG_CATEGORIES, MODEL_NAME, VARIABLES,
+};
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::logging::LOG_EVENTS;
 use fmi2_slave::{error, Boolean, Failure, Logger, Slave, Status, ValueReference};
-use std::sync::OnceLock;
 
 fmi2_slave::export_fmi2!(SpeedController);
 
@@ -19,8 +20,8 @@ pub const LOG_SOLVER: &str = "logSolver";
 /// Everything that determines how an instance continues (also its FMU state).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpeedController {
-    /// Values of the parameters and the input, by value reference (outputs' slots unused).
-    pub values: [f64; VARS.len()],
+    pub params: Params,
+    pub inputs: Inputs,
     pub start_time: f64,
     pub time: f64,
     /// The controller; None until the end of initialization.
@@ -28,70 +29,75 @@ pub struct SpeedController {
 }
 
 impl SpeedController {
-    pub fn params(&self) -> Params {
-        let v = |id: Id| self.values[id as usize];
-        Params {
-            w_ref: v(Id::w_ref),
-            t_ramp: v(Id::t_ramp),
-            w_step: v(Id::w_step),
-            t_step: v(Id::t_step),
-            kp: v(Id::kp),
-            ki: v(Id::ki),
-            tau_max: v(Id::tau_max),
+    /// The law's parameters.
+    pub fn params(&self) -> controller::Params {
+        let p = &self.params;
+        controller::Params {
+            w_ref: p.w_ref,
+            t_ramp: p.t_ramp,
+            w_step: p.w_step,
+            t_step: p.t_step,
+            kp: p.kp,
+            ki: p.ki,
+            tau_max: p.tau_max,
         }
     }
 
     /// The controller now: after initialization its state, before it the state it would
     /// start from with the current input.
     fn pi(&self) -> Pi {
-        self.pi.unwrap_or_else(|| {
-            Pi::initial(
-                &self.params(),
-                self.start_time,
-                self.values[Id::w_A as usize],
-            )
-        })
+        self.pi
+            .unwrap_or_else(|| Pi::initial(&self.params(), self.start_time, self.inputs.w_A))
     }
 }
 
-fn lookup(vr: u32, ty: Type) -> Result<Id, Failure> {
-    let id = Id::from_vr(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
-    if id.def().ty != ty {
+fn lookup(vr: u32, ty: VarType) -> Result<Var, Failure> {
+    let v = Var::from_vr(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
+    let info = v.info();
+    if info.ty != ty {
         return Err(error(format!(
             "{} (value reference {vr}) is {:?}, not {ty:?}",
-            id.def().name,
-            id.def().ty
+            info.name, info.ty
         )));
     }
-    Ok(id)
+    Ok(v)
 }
 
 /// A variable that may be set: a parameter or the input.
-fn settable(vr: u32, ty: Type) -> Result<Id, Failure> {
-    let id = lookup(vr, ty)?;
-    match id.def().causality {
-        Causality::Output => Err(error(format!(
+fn settable(vr: u32, ty: VarType) -> Result<Var, Failure> {
+    let v = lookup(vr, ty)?;
+    match v.info().causality {
+        Causality::Parameter | Causality::Input => Ok(v),
+        _ => Err(error(format!(
             "{} is an output: it cannot be set",
-            id.def().name
+            v.info().name
         ))),
-        Causality::Parameter | Causality::Input => Ok(id),
     }
+}
+
+/// The Real parameters and inputs in the table's order (the FMU state's payload).
+fn settable_reals() -> impl Iterator<Item = Var> {
+    VARIABLES
+        .iter()
+        .filter(|v| v.ty == VarType::Real)
+        .filter(|v| matches!(v.causality, Causality::Parameter | Causality::Input))
+        .map(|v| v.var)
 }
 
 impl Slave for SpeedController {
     const MODEL_NAME: &'static str = MODEL_NAME;
     const LOG_CATEGORIES: &'static [&'static str] = LOG_CATEGORIES;
     const STATE_MAGIC: [u8; 8] = *b"SPCSTATE";
-    const STATE_FORMAT_VERSION: u32 = 1;
+    const STATE_FORMAT_VERSION: u32 = 2;
 
     fn guid() -> &'static str {
-        static GUID: OnceLock<String> = OnceLock::new();
-        GUID.get_or_init(guid)
+        GUID
     }
 
     fn fresh() -> SpeedController {
         SpeedController {
-            values: VARS.map(|v| v.start),
+            params: Params::default(),
+            inputs: Inputs::default(),
             start_time: 0.0,
             time: 0.0,
             pi: None,
@@ -118,22 +124,22 @@ impl Slave for SpeedController {
     }
 
     fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure> {
-        let id = lookup(vr, Type::Real)?;
-        Ok(match id.def().causality {
-            Causality::Parameter | Causality::Input => self.values[vr as usize],
-            Causality::Output => match id {
-                Id::tau => self.pi().tau,
-                Id::error => self.pi().error,
-                Id::integral => self.pi().integral,
-                Id::w_r => reference(&self.params(), self.start_time, self.time),
-                other => unreachable!("{other:?} is a Real output"),
-            },
+        let v = lookup(vr, VarType::Real)?;
+        if let Some(x) = self.params.get_real(v).or(self.inputs.get_real(v)) {
+            return Ok(x);
+        }
+        Ok(match v {
+            Var::tau => self.pi().tau,
+            Var::error => self.pi().error,
+            Var::integral => self.pi().integral,
+            Var::w_r => reference(&self.params(), self.start_time, self.time),
+            other => unreachable!("{other:?} is a Real output"),
         })
     }
 
     fn get_boolean(&mut self, vr: ValueReference) -> Result<bool, Failure> {
-        match lookup(vr, Type::Boolean)? {
-            Id::saturated => Ok(self.pi().saturated),
+        match lookup(vr, VarType::Boolean)? {
+            Var::saturated => Ok(self.pi().saturated),
             other => unreachable!("{other:?} is a Boolean output"),
         }
     }
@@ -146,26 +152,19 @@ impl Slave for SpeedController {
         values: &[f64],
         _running: bool,
     ) -> Result<(), Failure> {
-        let mut new = self.values;
+        let (mut params, mut inputs) = (self.params.clone(), self.inputs.clone());
         for (&vr, &x) in vrs.iter().zip(values) {
-            let d = settable(vr, Type::Real)?.def();
-            let admissible = x.is_finite()
-                && match d.lower {
-                    Some((lo, true)) => x >= lo,
-                    Some((lo, false)) => x > lo,
-                    None => true,
-                };
-            if !admissible {
-                let bound = match d.lower {
-                    Some((lo, true)) => format!(" and >= {lo}"),
-                    Some((lo, false)) => format!(" and > {lo}"),
-                    None => String::new(),
-                };
-                return Err(error(format!("{} = {x}: must be finite{bound}", d.name)));
+            let v = settable(vr, VarType::Real)?;
+            let info = v.info();
+            if !x.is_finite() {
+                return Err(error(format!("{} = {x}: must be finite", info.name)));
             }
-            new[vr as usize] = x;
+            if let Some(why) = info.range.violation(x) {
+                return Err(error(format!("{} = {x}: {why}", info.name)));
+            }
+            let _ = params.set_real(v, x) || inputs.set_real(v, x);
         }
-        self.values = new;
+        (self.params, self.inputs) = (params, inputs);
         Ok(())
     }
 
@@ -177,14 +176,14 @@ impl Slave for SpeedController {
         _running: bool,
     ) -> Result<(), Failure> {
         for &vr in vrs {
-            settable(vr, Type::Boolean)?;
+            settable(vr, VarType::Boolean)?;
         }
         Ok(())
     }
 
     fn do_step(&mut self, current: f64, h: f64, log: &Logger) -> Result<(), Failure> {
         let p = self.params();
-        let w = self.values[Id::w_A as usize];
+        let w = self.inputs.w_A;
         let mut pi = self.pi();
         let was_saturated = pi.saturated;
         pi.step(&p, self.start_time, current, h, w);
@@ -221,7 +220,13 @@ impl Slave for SpeedController {
     }
 
     fn encode(&self, w: &mut Writer) {
-        w.fs(&self.values);
+        for v in settable_reals() {
+            w.f(self
+                .params
+                .get_real(v)
+                .or(self.inputs.get_real(v))
+                .expect("a Real"));
+        }
         w.f(self.start_time);
         w.f(self.time);
         w.b(self.pi.is_some());
@@ -236,7 +241,11 @@ impl Slave for SpeedController {
     }
 
     fn decode(r: &mut Reader) -> Result<SpeedController, String> {
-        let values = r.fs()?;
+        let (mut params, mut inputs) = (Params::default(), Inputs::default());
+        for v in settable_reals() {
+            let x = r.f()?;
+            let _ = params.set_real(v, x) || inputs.set_real(v, x);
+        }
         let (start_time, time, has_pi) = (r.f()?, r.f()?, r.b()?);
         let [integral, error, tau] = r.fs()?;
         let saturated = r.b()?;
@@ -247,7 +256,8 @@ impl Slave for SpeedController {
             saturated,
         });
         Ok(SpeedController {
-            values,
+            params,
+            inputs,
             start_time,
             time,
             pi,
@@ -263,7 +273,7 @@ mod tests {
     #[test]
     fn serialized_state_round_trips_and_rejects_damage() {
         let mut s = SpeedController::fresh();
-        s.values[Id::w_A as usize] = 12.5;
+        s.inputs.w_A = 12.5;
         s.exit_initialization().unwrap();
         s.pi.as_mut().unwrap().integral = 3.25;
         let saved = Saved {

@@ -1,7 +1,8 @@
-//! The variable table of SpurGearMesh (`variables.toml`) and what is generated from it:
+//! The variable tables of the repository's FMUs (SpurGearMesh's `variables.toml` here, the
+//! SpeedController's in controller-fmu/) and what is generated from a table:
 //! `modelDescription.xml` and the Rust bindings (`Var`, value references, `Params`, `Inputs`,
-//! `Outputs`, `Calculated`). The crate's build.rs and the packaging step both call this, so the
-//! XML inside the FMU and the value references compiled into the binary cannot disagree.
+//! `Outputs`, `Calculated`). Each crate's build.rs and the packaging step both call this, so the
+//! XML inside an FMU and the value references compiled into its binary cannot disagree.
 
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, BytesText, Event};
 use quick_xml::Writer;
@@ -14,6 +15,9 @@ pub const TABLE_TOML: &str = include_str!("../variables.toml");
 
 #[derive(Debug, Deserialize)]
 pub struct Table {
+    /// The source text (the GUID is its hash).
+    #[serde(skip)]
+    pub text: String,
     pub model: ModelInfo,
     pub units: BTreeMap<String, Unit>,
     #[serde(rename = "var")]
@@ -32,6 +36,10 @@ pub struct ModelInfo {
     #[serde(default)]
     pub tolerance: Option<f64>,
     pub log_categories: Vec<[String; 2]>,
+    /// "none": no output depends on an input at a communication point (ModelStructure lists
+    /// the outputs with empty dependencies); absent: the default, dependent on all knowns.
+    #[serde(default)]
+    pub output_dependencies: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -107,6 +115,30 @@ impl Var {
     }
 }
 
+/// Why a value lies outside a variable's bounds, written into every crate's bindings.
+const RANGE_VIOLATION: &str = r#"
+impl Range {
+    /// Why x lies outside the bounds ("must be > 0"), or None.
+    pub fn violation(&self, x: f64) -> Option<String> {
+        let below = self.min.is_some_and(|m| x < m || (self.exclusive_min && x == m));
+        let above = self.max.is_some_and(|m| x > m || (self.exclusive_max && x == m));
+        if !(below || above) {
+            return None;
+        }
+        let (lo, hi) = (
+            if self.exclusive_min { "(" } else { "[" },
+            if self.exclusive_max { ")" } else { "]" },
+        );
+        Some(match (self.min, self.max) {
+            (Some(a), Some(b)) => format!("must lie in {lo}{a}, {b}{hi}"),
+            (Some(a), None) => format!("must be {} {a}", if self.exclusive_min { ">" } else { ">=" }),
+            (None, Some(b)) => format!("must be {} {b}", if self.exclusive_max { "<" } else { "<=" }),
+            (None, None) => unreachable!("a violation needs a bound"),
+        })
+    }
+}
+"#;
+
 /// Shortest text that reads back to the same f64.
 fn format_real(f: f64) -> String {
     let s = format!("{f:?}");
@@ -114,7 +146,13 @@ fn format_real(f: f64) -> String {
 }
 
 pub fn load() -> Table {
-    let table: Table = toml::from_str(TABLE_TOML).expect("variables.toml does not parse");
+    parse(TABLE_TOML)
+}
+
+/// A table from its TOML text (panics with the reason on a malformed one: build scripts call it).
+pub fn parse(text: &str) -> Table {
+    let mut table: Table = toml::from_str(text).expect("the variable table does not parse");
+    table.text = text.to_owned();
     check(&table);
     table
 }
@@ -155,8 +193,8 @@ fn check(t: &Table) {
 
 /// A stable GUID: a 128-bit FNV-1a hash of the table and the crate version, so that a changed
 /// table gives a new GUID and the same table always gives the same one.
-pub fn guid(version: &str) -> String {
-    fmi2_slave::guid_from_hash(TABLE_TOML.bytes().chain(version.bytes()))
+pub fn guid(t: &Table, version: &str) -> String {
+    fmi2_slave::guid_from_hash(t.text.bytes().chain(version.bytes()))
 }
 
 fn elem<'a>(name: &'a str, attrs: &[(&str, String)]) -> BytesStart<'a> {
@@ -177,7 +215,7 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         &[
             ("fmiVersion", "2.0".into()),
             ("modelName", t.model.name.clone()),
-            ("guid", guid(version)),
+            ("guid", guid(t, version)),
             ("description", t.model.description.clone()),
             ("author", t.model.author.clone()),
             ("version", version.into()),
@@ -299,8 +337,13 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
     };
     put(Event::Start(BytesStart::new("ModelStructure")));
     put(Event::Start(BytesStart::new("Outputs")));
+    let none = t.model.output_dependencies.as_deref() == Some("none");
     for i in index_of(&|v| v.causality == "output") {
-        put(Event::Empty(elem("Unknown", &[("index", i.to_string())])));
+        let mut attrs = vec![("index", i.to_string())];
+        if none {
+            attrs.push(("dependencies", String::new()));
+        }
+        put(Event::Empty(elem("Unknown", &attrs)));
     }
     put(Event::End(BytesEnd::new("Outputs")));
     put(Event::Start(BytesStart::new("InitialUnknowns")));
@@ -325,7 +368,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         "// Generated from modelDescription/variables.toml by build.rs. Do not edit."
     )
     .unwrap();
-    writeln!(w, "pub const GUID: &str = {:?};", guid(version)).unwrap();
+    writeln!(w, "pub const GUID: &str = {:?};", guid(t, version)).unwrap();
     writeln!(w, "pub const MODEL_IDENTIFIER: &str = {:?};", t.model.name).unwrap();
     let cats: Vec<&str> = t
         .model
@@ -357,6 +400,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Variability {{ Fixed, Tunable, Continuous, Discrete }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug)]\npub struct VarInfo {{ pub var: Var, pub name: &'static str, pub vr: u32, pub ty: VarType, pub causality: Causality, pub variability: Variability, pub unit: Option<&'static str>, pub range: Range, pub geometry: Option<i32>, pub description: &'static str }}").unwrap();
     writeln!(w, "/// A variable's bounds from the table (None: unbounded), each inclusive unless marked.\n#[derive(Clone, Copy, Debug)]\npub struct Range {{ pub min: Option<f64>, pub max: Option<f64>, pub exclusive_min: bool, pub exclusive_max: bool }}").unwrap();
+    w.push_str(RANGE_VIOLATION);
 
     let camel = |x: &str| -> String {
         let mut c = x.chars();
@@ -504,7 +548,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
             .filter(|f| f.ty == "Real")
             .map(|f| format!("(self.{n} - self.{n})", n = f.name))
             .collect();
-        writeln!(w, "    /// The first Real field that is NaN or infinite, with its name.\n    pub fn first_non_finite(&self) -> Option<(&'static str, f64)> {{").unwrap();
+        writeln!(w, "    /// The first Real field that is NaN or infinite, with its name.\n    #[allow(clippy::eq_op)]\n    pub fn first_non_finite(&self) -> Option<(&'static str, f64)> {{").unwrap();
         if !reals.is_empty() {
             writeln!(
                 w,
