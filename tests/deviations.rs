@@ -35,6 +35,8 @@ fn each_pair_carries_at_its_own_penetration() {
         w_B_start: 50.0 / 1.5,
         pitch_errors_A: pitch(22, &[(0, 1e-7), (1, -4e-8)]),
         pitch_errors_B: pitch(33, &[(0, 3e-8), (1, 2e-8)]),
+        // Undamped: the forces are the elastic ones.
+        chi: 0.0,
         ..Params::default()
     };
     let g = Geometry::new(&p).unwrap();
@@ -114,6 +116,7 @@ fn the_energy_balance_holds_with_deviations() {
         contact_model: 3,
         chi: 0.2,
         mu: 0.05,
+        c_load: 0.0,
         w_A_start: 100.0,
         w_B_start: 100.0 / 1.5,
         tip_relief_A: 1e-5,

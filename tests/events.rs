@@ -32,6 +32,7 @@ fn a_graze_into_the_forward_flank_is_located() {
         for rtol in [1e-6, 1e-3] {
             let base = Params {
                 dte_start: -5e-5,
+                c_load: 0.0,
                 ..Params::default()
             };
             let g = Geometry::new(&base).unwrap();

@@ -54,6 +54,8 @@ fn static_load_single_and_double_contact() {
         let base = Params {
             zA: z_a,
             zB: z_b,
+            chi: 0.0,
+            c_load: 0.0,
             ..Params::default()
         };
         let g = Geometry::new(&base).unwrap();

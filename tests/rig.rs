@@ -107,9 +107,11 @@ fn housing_motion_in_free_flight() {
         w_B_start: 10.0 / 1.5,
         slider_stiffness: k,
         slider_mass: m,
+        c_load: 0.0,
         ..Params::default()
     };
     let i = Inputs {
+        tau_A: 0.0,
         alpha_housing: alpha,
         a_housing_x: a_x,
         ..Inputs::default()
@@ -159,9 +161,14 @@ fn rigid_impacts_keep_the_energy_balance() {
             dte_start: -5e-5,
             w_A_start: 10.0,
             w_B_start: 10.0 / 1.5 - 0.01,
+            c_load: 0.0,
             ..Params::default()
         };
-        let out = run(&p, &Inputs::default(), 1e-10, 1e-3, 0.05);
+        let free = Inputs {
+            tau_A: 0.0,
+            ..Inputs::default()
+        };
+        let out = run(&p, &free, 1e-10, 1e-3, 0.05);
         let last = &out.last().unwrap().1;
         assert!(last.n_impacts >= 1, "e {e}: the teeth meet");
         let scale = last.E_kin;

@@ -49,7 +49,10 @@ fn documentation(t: &Table) -> String {
          friction <code>mu tanh(v_s/v_reg)</code> are added. All angles, speeds and torques are positive in the forward \
          drive sense. Inside <code>fmi2DoStep</code> an adaptive integrator (explicit Dormand-Prince 5(4) or implicit \
          BDF from diffsol, parameter <code>solver</code>) locates every tooth-pair switch, contact onset, separation and \
-         release, so the right-hand side is smooth inside each internal step.</p>\n",
+         release, so the right-hand side is smooth inside each internal step.</p>\n\
+         <p>The defaults run the paper's rig: drive <code>tau_A</code> = 100 N.m, load <code>c_load</code> = 2 N.m.s/rad, \
+         running start at 100 rad/s, light damping <code>chi</code> = 10 s/m. A run with no start values shows the mesh at \
+         work; set <code>chi</code> = 0 for the paper's undamped mesh.</p>\n",
     );
     h.push_str(
         "<h2>Which contact model</h2>\n<ul>\

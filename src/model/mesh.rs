@@ -1713,9 +1713,15 @@ mod tests {
                 dte_start: dte,
                 w_A_start: 50.0,
                 w_B_start: 33.0,
+                c_load: 0.0,
                 ..Params::default()
             };
-            let (m, y) = Mesh::new(&p, &Inputs::default()).unwrap();
+            // No external torque: the wheels' power is the mesh's.
+            let no_drive = Inputs {
+                tau_A: 0.0,
+                ..Inputs::default()
+            };
+            let (m, y) = Mesh::new(&p, &no_drive).unwrap();
             assert!(m.flank_on(flank));
             let mut dy = [0.0; NY];
             m.rhs(&y, &mut dy).unwrap();
@@ -1742,6 +1748,8 @@ mod tests {
             dte_start: 3e-7,
             w_A_start: 80.0,
             w_B_start: 50.0,
+            chi: 0.0,
+            mu: 0.0,
             ..Params::default()
         };
         let (m, y) = Mesh::new(&p, &Inputs::default()).unwrap();
