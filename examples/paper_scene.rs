@@ -11,6 +11,8 @@ fn main() {
         c_load: 2.0,
         w_A_start: 100.0,
         w_B_start: 100.0 / 1.5,
+        // The paper's mesh is undamped.
+        chi: 0.0,
         solver,
         ..Params::default()
     };
