@@ -291,7 +291,7 @@ fn run_rust(c: &Config) -> RunResult {
     for k in 0..ts.len() - 1 {
         if let Some(tab) = &c.table {
             tab.apply(ts[k], &mut inputs);
-            sim.set_loads(loads_of(&sim.mesh, &inputs));
+            sim.set_loads(loads_of(&sim.mesh, &inputs), None);
         }
         let log_events = c.log_events;
         let advanced = sim.advance(ts[k + 1], &mut |t, r| {

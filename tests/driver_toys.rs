@@ -5,7 +5,7 @@
 use spur_gear_mesh::driver::{Driver, Method, System, Tolerance};
 use spur_gear_mesh::model::contact::N_EVENTS;
 use spur_gear_mesh::model::mesh::{EventReport, LawOutOfRange, N_CONTROLLED};
-use spur_gear_mesh::model::State;
+use spur_gear_mesh::model::{State, NY};
 
 const G: f64 = 9.81;
 
@@ -47,7 +47,7 @@ impl Toy {
 
 impl System for Toy {
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
-        *dy = [0.0; 8];
+        *dy = [0.0; NY];
         dy[0] = y[1];
         dy[1] = match self {
             Toy::Oscillator { omega } => -omega * omega * y[0],
@@ -107,7 +107,7 @@ impl System for Toy {
 }
 
 fn driver(y0: [f64; 2], rtol: f64) -> Driver {
-    let mut y = [0.0; 8];
+    let mut y = [0.0; NY];
     y[..2].copy_from_slice(&y0);
     let tol = Tolerance {
         rtol,

@@ -219,7 +219,7 @@ fn driver_run(case: &Case, solver: i32, rel_tol: f64) -> Option<Vec<[f64; 3]>> {
         i.tau_A = (case.tau_a)(t) * case.tau_scale;
         let mut loads = sim.mesh.loads;
         loads.tau_a = i.tau_A;
-        sim.set_loads(loads);
+        sim.set_loads(loads, None);
         sim.advance(t + case.comm_step, &mut |_, _| {}).ok()?;
         let o = outputs(&sim).ok()?;
         out.push([o.dte, o.w_A, o.w_B]);

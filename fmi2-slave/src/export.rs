@@ -226,12 +226,12 @@ macro_rules! export_fmi2 {
         #[no_mangle]
         pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
             c: $crate::Component,
-            _vr: *const $crate::ValueReference,
-            _n: usize,
-            _order: *const ::std::os::raw::c_int,
-            _value: *const f64,
+            vr: *const $crate::ValueReference,
+            n: usize,
+            order: *const ::std::os::raw::c_int,
+            value: *const f64,
         ) -> $crate::Status {
-            $crate::ffi::set_real_input_derivatives::<$slave>(c)
+            $crate::ffi::set_real_input_derivatives::<$slave>(c, vr, n, order, value)
         }
 
         #[no_mangle]

@@ -515,13 +515,20 @@ pub unsafe fn cancel_step<S: Slave>(c: Component) -> Status {
     )
 }
 
-pub unsafe fn set_real_input_derivatives<S: Slave>(c: Component) -> Status {
-    not_supported::<S>(
-        c,
-        "fmi2SetRealInputDerivatives",
-        allowed::SET,
-        "canInterpolateInputs is false: input derivatives are not supported",
-    )
+pub unsafe fn set_real_input_derivatives<S: Slave>(
+    c: Component,
+    vr: *const ValueReference,
+    n: usize,
+    order: *const c_int,
+    value: *const f64,
+) -> Status {
+    with::<S>(c, "fmi2SetRealInputDerivatives", allowed::SET, |i| {
+        let vrs = slice(vr, n, "vr")?;
+        let orders = slice(order, n, "order")?;
+        let values = slice(value, n, "value")?;
+        i.slave.set_real_input_derivatives(vrs, orders, values)?;
+        Ok(Status::Ok)
+    })
 }
 
 pub unsafe fn get_real_output_derivatives<S: Slave>(c: Component) -> Status {

@@ -107,6 +107,20 @@ pub trait Slave: Clone + 'static {
         }
     }
 
+    /// fmi2SetRealInputDerivatives: `values[k]` is the `orders[k]`-th time derivative of input
+    /// `vrs[k]` at the current time (equal lengths), for a slave that interpolates its inputs
+    /// over the next steps.
+    fn set_real_input_derivatives(
+        &mut self,
+        _vrs: &[ValueReference],
+        _orders: &[i32],
+        _values: &[f64],
+    ) -> Result<(), Failure> {
+        Err(crate::error(
+            "canInterpolateInputs is false: input derivatives are not supported".into(),
+        ))
+    }
+
     /// fmi2DoStep from `current` (checked to be the instance's time) over `h` (finite and
     /// positive). A failure with status Discard means the step could not be completed and the
     /// instance keeps its values at `current`.

@@ -40,6 +40,9 @@ pub struct ModelInfo {
     /// the outputs with empty dependencies); absent: the default, dependent on all knowns.
     #[serde(default)]
     pub output_dependencies: Option<String>,
+    /// The model reads input derivatives (fmi2SetRealInputDerivatives) and interpolates.
+    #[serde(default)]
+    pub can_interpolate_inputs: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -233,7 +236,10 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
             ("modelIdentifier", t.model.name.clone()),
             ("needsExecutionTool", "false".into()),
             ("canHandleVariableCommunicationStepSize", "true".into()),
-            ("canInterpolateInputs", "false".into()),
+            (
+                "canInterpolateInputs",
+                t.model.can_interpolate_inputs.to_string(),
+            ),
             ("maxOutputDerivativeOrder", "0".into()),
             ("canRunAsynchronuously", "false".into()),
             ("canBeInstantiatedOnlyOncePerProcess", "false".into()),

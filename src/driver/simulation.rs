@@ -3,6 +3,7 @@
 
 use super::{Driver, DriverError, Method, System, Tolerance};
 use crate::model::contact::N_EVENTS;
+use crate::model::mesh::Ramp;
 use crate::model::mesh::{EventReport, LawOutOfRange};
 use crate::model::statistics::Statistics;
 use crate::model::{Loads, Mesh, ModelError, State};
@@ -117,7 +118,8 @@ impl Simulation {
         t0: f64,
         rel_tol: f64,
     ) -> Result<Simulation, ModelError> {
-        let (mesh, y0) = Mesh::new(p, inputs)?;
+        let (mesh, mut y0) = Mesh::new(p, inputs)?;
+        y0[crate::model::mesh::TIME] = t0;
         let tol = Tolerance {
             rtol: rel_tol,
             atol: mesh.abs_tol(rel_tol),
@@ -131,12 +133,16 @@ impl Simulation {
         self.driver.t
     }
 
-    /// New inputs or tunable parameters; a change restarts the integration at the current time.
-    pub fn set_loads(&mut self, loads: Loads) {
-        if loads != self.mesh.loads {
+    /// New inputs or tunable parameters, and the inputs' interpolation from here on (`Ramp`);
+    /// a change restarts the integration at the current time.
+    pub fn set_loads(&mut self, loads: Loads, ramp: Option<Ramp>) {
+        if loads != self.mesh.loads || ramp != self.mesh.ramp {
             self.observe_to_now();
             self.driver.invalidate();
             let mut y = self.driver.state();
+            // The time component is integrated only while a ramp is on: set it here.
+            y[crate::model::mesh::TIME] = self.driver.t;
+            self.mesh.ramp = ramp;
             self.mesh.set_loads(loads, &mut y);
             // Releasing a rigid lock may move the state onto the other flank (two-sided contact).
             self.driver.y_start = y;

@@ -13,13 +13,13 @@ use crate::driver::dopri5::Dopri5;
 use crate::driver::simulation::Simulation;
 use crate::driver::{MarginCache, Method, PendingEvent, Stats, WorkCap};
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::N_CONTROLLED;
+use crate::model::mesh::{Ramp, N_CONTROLLED};
 use crate::model::{Loads, NY};
 use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
 /// The version of the payload below (the envelope's format version).
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 
 /// Parameters or inputs, in the table's order.
 fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
@@ -67,6 +67,32 @@ fn read_vars(
     Ok(())
 }
 
+fn write_ramp(w: &mut Writer, r: Ramp) {
+    w.fs(&r.t0);
+    w.fs(&r.rate);
+    w.fs(&r.curvature);
+}
+
+fn read_ramp(r: &mut Reader) -> Result<Ramp, String> {
+    let ramp = Ramp {
+        t0: r.fs()?,
+        rate: r.fs()?,
+        curvature: r.fs()?,
+    };
+    if ramp
+        .t0
+        .iter()
+        .chain(&ramp.rate)
+        .chain(&ramp.curvature)
+        .any(|x| !x.is_finite())
+    {
+        return Err(format!(
+            "input interpolation in the state is not finite ({ramp:?})"
+        ));
+    }
+    Ok(ramp)
+}
+
 fn write_sim(w: &mut Writer, s: &Simulation) {
     let m = &s.mesh;
     let l = &m.loads;
@@ -81,6 +107,7 @@ fn write_sim(w: &mut Writer, s: &Simulation) {
         l.a_housing_x,
     ]);
     w.fs(&m.sigma);
+    write_ramp(w, m.ramp.unwrap_or_default());
     m.sign.iter().for_each(|&b| w.b(b));
     w.f(m.e_gate);
     w.u(m.n_events);
@@ -215,6 +242,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
         a_housing_x: l[7],
     };
     m.set_sigma(r.fs()?);
+    m.ramp = Some(read_ramp(r)?).filter(Ramp::is_active);
     for b in m.sign.iter_mut() {
         *b = r.b()?;
     }
@@ -294,6 +322,7 @@ pub fn write(w: &mut Writer, s: &Snapshot) {
     w.f(s.start_time);
     w.opt(s.stop_time);
     w.opt(s.tolerance);
+    write_ramp(w, s.ramp);
     w.b(s.sim.is_some());
     if let Some(sim) = &s.sim {
         write_sim(w, sim);
@@ -307,6 +336,7 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     let start_time = r.f()?;
     let stop_time = r.opt()?;
     let tolerance = r.opt()?;
+    let ramp = read_ramp(r)?;
     if !start_time.is_finite() || stop_time.is_some_and(|t| !(t >= start_time && t.is_finite())) {
         return Err(format!(
             "invalid experiment times (start {start_time}, stop {stop_time:?})"
@@ -336,6 +366,7 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
         start_time,
         stop_time,
         tolerance,
+        ramp,
         sim,
     })
 }
@@ -392,6 +423,24 @@ mod tests {
         let fresh = Snapshot::fresh();
         let inst = FmiState::Instantiated;
         assert_eq!(decode(&encode(inst, &fresh)).unwrap(), (inst, fresh));
+    }
+
+    /// With interpolated inputs the state carries the ramp (the snapshot's and the mesh's) and
+    /// the integrated time.
+    #[test]
+    fn round_trip_keeps_the_input_interpolation() {
+        let mut s = running(1);
+        s.ramp = Ramp {
+            t0: [3.3e-3, 0.0, 0.0, 0.0],
+            rate: [250.0, 0.0, 0.0, 0.0],
+            curvature: [0.0, -40.0, 0.0, 0.0],
+        };
+        let loads = Loads::new(&s.params, &s.inputs);
+        let sim = s.sim.as_mut().unwrap();
+        sim.set_loads(loads, Some(s.ramp));
+        sim.advance(4e-3, &mut |_, _| {}).unwrap();
+        let done = FmiState::StepComplete;
+        assert_eq!(decode(&encode(done, &s)).unwrap(), (done, s));
     }
 
     #[test]

@@ -7,6 +7,7 @@ use super::{fmu_state, outputs};
 use crate::driver::simulation::Simulation;
 use crate::driver::DriverError;
 use crate::model::geometry;
+use crate::model::mesh::Ramp;
 use crate::model::Loads;
 use crate::variables::{
     Causality, Inputs, Outputs, Params, Var, VarType, Variability, GUID, LOG_CATEGORIES,
@@ -29,6 +30,8 @@ pub struct Snapshot {
     pub start_time: f64,
     pub stop_time: Option<f64>,
     pub tolerance: Option<f64>,
+    /// The inputs' interpolation (fmi2SetRealInputDerivatives); all zero: held inputs.
+    pub ramp: Ramp,
     pub sim: Option<Simulation>,
 }
 
@@ -50,8 +53,24 @@ impl Snapshot {
             start_time: 0.0,
             stop_time: None,
             tolerance: None,
+            ramp: Ramp::default(),
             sim: None,
         }
+    }
+
+    fn active_ramp(&self) -> Option<Ramp> {
+        self.ramp.is_active().then_some(self.ramp)
+    }
+}
+
+/// The position of an input in `Ramp` (inputs in the table's order).
+fn ramp_slot(v: Var) -> Option<usize> {
+    match v {
+        Var::tau_A => Some(0),
+        Var::tau_B => Some(1),
+        Var::alpha_housing => Some(2),
+        Var::a_housing_x => Some(3),
+        _ => None,
     }
 }
 
@@ -190,6 +209,57 @@ impl Slave for SpurGearMesh {
         )
     }
 
+    /// Input derivatives at the current time (canInterpolateInputs): order 1 (rate) or 2
+    /// (curvature) of tau_A, tau_B, alpha_housing, a_housing_x. The input is re-based to now
+    /// first, so a derivative given without a new value continues from the input's current
+    /// value. All are checked before any is applied.
+    fn set_real_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &[f64],
+    ) -> Result<(), Failure> {
+        let now = self.time();
+        let (mut inputs, mut ramp) = (self.snap.inputs.clone(), self.snap.ramp);
+        for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
+            let v = lookup(vr, VarType::Real)?;
+            let name = v.info().name;
+            let k = ramp_slot(v).ok_or_else(|| {
+                error(format!(
+                    "{name} (value reference {vr}) is not a Real input: it has no input derivative"
+                ))
+            })?;
+            if !(order == 1 || order == 2) {
+                return Err(error(format!(
+                    "{name}: derivative order {order} is not supported (1 or 2)"
+                )));
+            }
+            if !x.is_finite() {
+                return Err(error(format!(
+                    "{name}: derivative of order {order} = {x}: must be finite"
+                )));
+            }
+            let u = inputs.get_real(v).expect("a Real input");
+            let (u_now, rate_now) = ramp.extrapolate(k, u, now);
+            inputs.set_real(v, u_now);
+            ramp.t0[k] = now;
+            ramp.rate[k] = rate_now;
+            if order == 1 {
+                ramp.rate[k] = x;
+            } else {
+                ramp.curvature[k] = x;
+            }
+        }
+        self.snap.inputs = inputs;
+        self.snap.ramp = ramp;
+        self.fresh = false;
+        let (loads, ramp) = (self.loads(), self.snap.active_ramp());
+        if let Some(sim) = self.snap.sim.as_mut() {
+            sim.set_loads(loads, ramp);
+        }
+        Ok(())
+    }
+
     /// Strings are checked as parameters: the model parses them (a bad entry names its position).
     fn set_string(&mut self, vrs: &[u32], values: &[String], running: bool) -> Result<(), Failure> {
         self.set_many(
@@ -319,6 +389,9 @@ impl SpurGearMesh {
             if let Some(stop) = s.stop_time {
                 sim.driver.t_stop = stop;
             }
+            if let Some(r) = s.active_ramp() {
+                sim.set_loads(Loads::new(&s.params, &s.inputs), Some(r));
+            }
             self.snap.sim = Some(sim);
             self.fresh = false;
         }
@@ -372,6 +445,8 @@ impl SpurGearMesh {
         apply: impl Fn(&mut Params, &mut Inputs, Var, T),
     ) -> Result<(), Failure> {
         let (mut params, mut inputs) = (self.snap.params.clone(), self.snap.inputs.clone());
+        let mut ramp = self.snap.ramp;
+        let now = self.time();
         let mut any_parameter = false;
         for (&vr, x) in vrs.iter().zip(values) {
             let v = lookup(vr, ty)?;
@@ -384,6 +459,10 @@ impl SpurGearMesh {
             }
             apply(&mut params, &mut inputs, v, x.clone());
             any_parameter |= v.info().causality == Causality::Parameter;
+            // A value set for an input holds from now on until derivatives are given for it.
+            if let Some(k) = ramp_slot(v) {
+                (ramp.t0[k], ramp.rate[k], ramp.curvature[k]) = (now, 0.0, 0.0);
+            }
         }
         // Inputs need only be finite (checked above); parameters are checked as a whole.
         if any_parameter {
@@ -391,11 +470,12 @@ impl SpurGearMesh {
         }
         self.snap.params = params;
         self.snap.inputs = inputs;
+        self.snap.ramp = ramp;
         self.fresh = false;
         if running {
-            let loads = self.loads();
+            let (loads, ramp) = (self.loads(), self.snap.active_ramp());
             if let Some(sim) = self.snap.sim.as_mut() {
-                sim.set_loads(loads);
+                sim.set_loads(loads, ramp);
             }
         } else {
             // Before the end of initialization the simulation is rebuilt from the parameters.

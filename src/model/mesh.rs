@@ -25,7 +25,7 @@ use super::ModelError;
 use crate::variables::{Inputs, Params};
 use std::sync::Arc;
 
-pub const NY: usize = 8;
+pub const NY: usize = 9;
 pub type State = [f64; NY];
 pub const THETA_A: usize = 0;
 pub const DTE: usize = 1;
@@ -37,6 +37,9 @@ pub const W_LOSS: usize = 5;
 /// The slider's displacement and speed (zero and constant without a slider).
 pub const X_S: usize = 6;
 pub const V_S: usize = 7;
+/// Time, integrated (dt/dt = 1) only while inputs are interpolated (`Ramp`): the right-hand
+/// side then reads the inputs at the state's own time.
+pub const TIME: usize = 8;
 /// Components under error control, at most; the quadratures do not feed back into the dynamics.
 pub const N_CONTROLLED: usize = 6;
 /// Their indices: the first four always, the slider's two when there is one.
@@ -83,6 +86,45 @@ impl Loads {
             v_reg: p.v_reg,
             alpha_housing: i.alpha_housing,
             a_housing_x: i.a_housing_x,
+        }
+    }
+}
+
+/// Inputs interpolated over communication steps (fmi2SetRealInputDerivatives): input k is
+/// u_k + r_k (t - t0_k) + c_k (t - t0_k)^2 / 2 from the communication point t0_k at which
+/// u_k holds, for tau_A, tau_B, alpha_housing and a_housing_x in that order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Ramp {
+    pub t0: [f64; 4],
+    pub rate: [f64; 4],
+    pub curvature: [f64; 4],
+}
+
+impl Ramp {
+    /// Whether any input changes between communication points.
+    pub fn is_active(&self) -> bool {
+        self.rate.iter().chain(&self.curvature).any(|&x| x != 0.0)
+    }
+
+    /// Input k's value, rate and curvature at t, from u at t0_k.
+    pub fn extrapolate(&self, k: usize, u: f64, t: f64) -> (f64, f64) {
+        let dt = t - self.t0[k];
+        (
+            u + dt * (self.rate[k] + 0.5 * dt * self.curvature[k]),
+            self.rate[k] + dt * self.curvature[k],
+        )
+    }
+
+    /// The loads at time t.
+    #[inline]
+    pub fn apply(&self, l: &Loads, t: f64) -> Loads {
+        let at = |k: usize, u: f64| self.extrapolate(k, u, t).0;
+        Loads {
+            tau_a: at(0, l.tau_a),
+            tau_b: at(1, l.tau_b),
+            alpha_housing: at(2, l.alpha_housing),
+            a_housing_x: at(3, l.a_housing_x),
+            ..*l
         }
     }
 }
@@ -156,6 +198,8 @@ pub struct Mesh {
     pub(crate) e_start: f64,
     /// The run's statistics up to the driver's last observation (parameter `statistics`).
     pub stats: Option<Statistics>,
+    /// Interpolated inputs, if the master gave input derivatives.
+    pub ramp: Option<Ramp>,
     /// Shape deviations (none: pairs on a flank share delta, and the flank's Pen and Rel
     /// events serve them all).
     pub dev: Option<Arc<Deviations>>,
@@ -290,10 +334,21 @@ impl Mesh {
             stats: p.statistics.then(|| Statistics::new(p.stats_start)),
             dev,
             pitch_e: [0.0; SLOTS],
+            ramp: None,
         };
         mesh.set_sigma(sigma);
         let v = geo_r_ab * p.w_A_start - geo_r_bb * p.w_B_start;
-        let mut y = [theta_a, p.dte_start, p.w_A_start, v, 0.0, 0.0, 0.0, 0.0];
+        let mut y = [
+            theta_a,
+            p.dte_start,
+            p.w_A_start,
+            v,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+        ];
         mesh.init_signs(&mut y);
         mesh.check_range(&y)
             .map_err(|e| ModelError::new(format!("initial state: {e}")))?;
@@ -379,10 +434,21 @@ impl Mesh {
 
     /// The number of state components in use (a prefix of `State`): no slider, no slider states.
     pub fn dim(&self) -> usize {
-        if self.slider.is_some() {
+        if self.ramp.is_some() {
             NY
+        } else if self.slider.is_some() {
+            V_S + 1
         } else {
             X_S
+        }
+    }
+
+    /// The loads at state y: the interpolated inputs at its time, if any.
+    #[inline]
+    fn loads_at(&self, y: &State) -> Loads {
+        match &self.ramp {
+            None => self.loads,
+            Some(r) => r.apply(&self.loads, y[TIME]),
         }
     }
 
@@ -709,7 +775,7 @@ impl Mesh {
         // communication point of a locked rigid mesh, where the chain of three divisions was
         // a tenth of the wall time. (The compliant right-hand side keeps its divisions, and so
         // its trajectories bit for bit.)
-        let l = &self.loads;
+        let l = &self.loads_at(y);
         let w_b = (g.r_ab * y[W_A] - y[DDTE]) * self.inv_r_bb;
         let dw_a = l.tau_a * self.inv_j_a + l.alpha_housing;
         let acc_b = (l.tau_b - l.c_load * w_b) * self.inv_j_b - l.alpha_housing;
@@ -739,7 +805,7 @@ impl Mesh {
     /// Accelerations of A, B and the slider under a mesh load; `external` scales the torques,
     /// housing and slider forces (1 for the real motion, 0 for a unit constraint force alone).
     fn accelerations(&self, y: &State, m: &MeshLoad, external: f64) -> (f64, f64, f64) {
-        let l = &self.loads;
+        let l = &self.loads_at(y);
         let w_b = self.w_b(y);
         let dw_a = (external * l.tau_a + m.tq_a) / self.j_a + external * l.alpha_housing;
         let acc_b = (external * (l.tau_b - l.c_load * w_b) + m.tq_b) / self.j_b
@@ -757,7 +823,7 @@ impl Mesh {
     /// rigid flank holds its penetration exactly: no drift away from the constraint.
     fn motion(&self, y: &State, load: &MeshLoad, locked: Option<Flank>, dy: &mut State) {
         let g = &self.geo;
-        let l = &self.loads;
+        let l = &self.loads_at(y);
         let (w_a, w_b) = (y[W_A], self.w_b(y));
         let (dw_a, acc_b, acc_x) = self.accelerations(y, load, 1.0);
         dy[THETA_A] = w_a;
@@ -776,6 +842,7 @@ impl Mesh {
         dy[W_LOSS] = load.p_loss;
         dy[X_S] = 0.0;
         dy[V_S] = 0.0;
+        dy[TIME] = 1.0;
         if let Some(s) = self.slider {
             dy[W_EXT] -= s.m * l.a_housing_x * y[V_S];
             dy[W_LOSS] += s.c * y[V_S] * y[V_S];
