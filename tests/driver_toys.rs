@@ -1,18 +1,37 @@
 //! The integration driver on toy problems with known answers (issue 12, point 3): Dormand-Prince
 //! on a harmonic oscillator, and event location on a bouncing ball with analytic impact times
-//! and on a ball whose flight grazes a ceiling. The driver sees them only through `System`.
+//! and on a ball whose flight grazes a ceiling. The driver sees them only through `System`,
+//! with their own state (two components), events (two) and error types: nothing of the gear.
 
-use spur_gear_mesh::driver::{Driver, Method, System, Tolerance};
-use spur_gear_mesh::model::contact::N_EVENTS;
-use spur_gear_mesh::model::mesh::{EventReport, LawOutOfRange, N_CONTROLLED};
-use spur_gear_mesh::model::{State, NY};
+use spur_gear_mesh::driver::{Driver, EventOutcome, Method, System, Tolerance};
+
+/// The toys' state: position and velocity.
+type State = [f64; 2];
+/// Floor and ceiling.
+type Margins = [f64; 2];
+
+/// The toys never fail.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("never")]
+struct Never;
+
+/// What a toy reports of an event.
+struct Hit {
+    what: &'static str,
+}
+
+impl EventOutcome for Hit {
+    fn smooth(&self) -> bool {
+        false
+    }
+}
 
 const G: f64 = 9.81;
 
 /// x'' = -omega^2 x (state [x, v]), or a ball under gravity (state [h, v]) that bounces on the
 /// floor h = 0 with restitution e and, with a ceiling it passes through, reports each crossing
 /// (event 1; `above` is the side it is on, so the margin is positive until the next crossing).
-#[derive(Clone)]
+#[derive(Clone, Debug, PartialEq)]
 enum Toy {
     Oscillator {
         omega: f64,
@@ -46,8 +65,11 @@ impl Toy {
 }
 
 impl System for Toy {
-    fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
-        *dy = [0.0; NY];
+    type State = State;
+    type Margins = Margins;
+    type Error = Never;
+    type Report = Hit;
+    fn rhs(&self, y: &State, dy: &mut State) -> Result<(), Never> {
         dy[0] = y[1];
         dy[1] = match self {
             Toy::Oscillator { omega } => -omega * omega * y[0],
@@ -55,7 +77,7 @@ impl System for Toy {
         };
         Ok(())
     }
-    fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
+    fn event_margins(&self, y: &State, out: &mut Margins) {
         for (i, m) in out.iter_mut().enumerate() {
             *m = self.value(i, y).map_or(1.0, |v| v.0);
         }
@@ -64,17 +86,17 @@ impl System for Toy {
         &self,
         y: &State,
         _dy: &State,
-        margins: &mut [f64; N_EVENTS],
-        rates: &mut [f64; N_EVENTS],
+        margins: &mut Margins,
+        rates: &mut Margins,
     ) {
-        for i in 0..N_EVENTS {
+        for i in 0..2 {
             (margins[i], rates[i]) = self.value(i, y).unwrap_or((1.0, 0.0));
         }
     }
     fn margin(&self, i: usize, y: &State) -> f64 {
         self.value(i, y).map_or(1.0, |v| v.0)
     }
-    fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange> {
+    fn handle_event(&mut self, i: usize, y: &mut State) -> Result<Hit, Never> {
         let Toy::Ball { e, above, .. } = self else {
             unreachable!()
         };
@@ -87,12 +109,11 @@ impl System for Toy {
             y[0] = 0.0;
             y[1] = -e * y[1];
         }
-        Ok(EventReport {
-            smooth: false,
-            what: if i == 0 { "floor" } else { "ceiling" }.into(),
+        Ok(Hit {
+            what: if i == 0 { "floor" } else { "ceiling" },
         })
     }
-    fn check_state(&self, _y: &State) -> Result<(), LawOutOfRange> {
+    fn check_state(&self, _y: &State) -> Result<(), Never> {
         Ok(())
     }
     /// As the gear limits a step to a fraction of a tooth pitch: a step far longer than the
@@ -106,15 +127,12 @@ impl System for Toy {
     }
 }
 
-fn driver(y0: [f64; 2], rtol: f64) -> Driver {
-    let mut y = [0.0; NY];
-    y[..2].copy_from_slice(&y0);
+fn driver(y0: State, rtol: f64) -> Driver<Toy> {
     let tol = Tolerance {
         rtol,
-        atol: [rtol; N_CONTROLLED],
-        n_controlled: 2,
+        atol: [rtol; 2],
     };
-    Driver::new(Method::from_solver(1), tol, 0.0, y)
+    Driver::new(Method::from_solver(1), tol, 0.0, y0)
 }
 
 /// Dormand-Prince keeps each step's local error below rel_tol times the state (the error
@@ -161,13 +179,13 @@ fn bouncing_ball_impacts_at_the_analytic_times() {
         };
         let mut d = driver([1.0, 0.0], rtol);
         let mut hits = Vec::new();
-        d.advance(&mut sys, 3.0, &mut |t, r| hits.push((t, r.what.clone())))
+        d.advance(&mut sys, 3.0, &mut |t, r| hits.push((t, r.what)))
             .unwrap();
         let mut t = (2.0 / G).sqrt();
         let mut v = G * t;
         assert!(hits.len() >= 6, "{hits:?}");
         for (k, (th, what)) in hits.iter().enumerate() {
-            assert_eq!(what, "floor");
+            assert_eq!(*what, "floor");
             assert!(
                 (th - t).abs() <= 1e-12,
                 "rtol {rtol}, impact {k}: {th} vs {t}"
@@ -193,13 +211,11 @@ fn a_ceiling_grazed_by_1_nm_is_located() {
         };
         let mut d = driver([0.0, v0], 1e-6);
         let mut hits = Vec::new();
-        d.advance(&mut sys, v0 / G * 1.5, &mut |t, r| {
-            hits.push((t, r.what.clone()))
-        })
-        .unwrap();
+        d.advance(&mut sys, v0 / G * 1.5, &mut |t, r| hits.push((t, r.what)))
+            .unwrap();
         let crossings: Vec<f64> = hits
             .iter()
-            .filter(|(_, w)| w == "ceiling")
+            .filter(|(_, w)| *w == "ceiling")
             .map(|(t, _)| *t)
             .collect();
         if !touches {

@@ -14,13 +14,11 @@
 //!   the live instance restart there too when it takes an FMU state, so a restored state
 //!   continues bit-identically.
 
-use super::{Stats, StepError, System, Tolerance};
-use crate::model::mesh::{LawOutOfRange, CONTROLLED};
-use crate::model::{State, NY};
+use super::{Stats, StepError, System, Tolerance, Vector};
 use diffsol::{
     Bdf as DiffsolBdf, Closure, ConstantClosure, NalgebraLU, NalgebraMat, NalgebraVec, OdeBuilder,
     OdeEquations, OdeSolverEquations, OdeSolverMethod, OdeSolverProblem, OdeSolverStopReason, Op,
-    UnitCallable, Vector,
+    UnitCallable, Vector as _,
 };
 use self_cell::self_cell;
 use std::cell::{Cell, RefCell};
@@ -54,26 +52,26 @@ self_cell!(
 );
 
 /// What the closures need: the model of this restart, counters, the finite-difference cache.
-struct Shared {
-    model: Box<dyn Fn(&State, &mut State) -> Result<(), LawOutOfRange>>,
-    y0: State,
+struct Shared<S: System> {
+    model: S,
+    y0: S::State,
     rhs_evals: Cell<u64>,
-    last_error: RefCell<Option<LawOutOfRange>>,
+    last_error: RefCell<Option<S::Error>>,
     /// Below these magnitudes a component counts as small (atol/rtol): the FD increment scale.
-    fd_scale: State,
-    fd: RefCell<(bool, State, State)>,
-    /// The components in use (a prefix of `State`): diffsol sees only these.
+    fd_scale: S::State,
+    fd: RefCell<(bool, S::State, S::State)>,
+    /// The components in use (a prefix of the state): diffsol sees only these.
     n: usize,
 }
 
-impl Shared {
+impl<S: System> Shared<S> {
     fn eval(&self, y: &[f64], dy: &mut [f64]) -> bool {
         self.rhs_evals.set(self.rhs_evals.get() + 1);
-        let (mut ys, mut d) = ([0.0; NY], [0.0; NY]);
-        copy_prefix(&mut ys, y);
-        match (self.model)(&ys, &mut d) {
+        let (mut ys, mut d) = (S::State::zeros(), S::State::zeros());
+        copy_prefix(ys.as_mut_slice(), y);
+        match self.model.rhs(&ys, &mut d) {
             Ok(()) => {
-                copy_prefix(dy, &d[..self.n]);
+                copy_prefix(dy, &d.as_slice()[..self.n]);
                 true
             }
             Err(e) => {
@@ -95,10 +93,10 @@ impl Shared {
     fn jac_mul(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         let mut c = self.fd.borrow_mut();
         let n = self.n;
-        if !(c.0 && &c.1[..n] == x) {
-            copy_prefix(&mut c.1, x);
-            let mut fx = [0.0; NY];
-            self.eval_poison(x, &mut fx[..n]);
+        if !(c.0 && &c.1.as_slice()[..n] == x) {
+            copy_prefix(c.1.as_mut_slice(), x);
+            let mut fx = S::State::zeros();
+            self.eval_poison(x, &mut fx.as_mut_slice()[..n]);
             c.2 = fx;
             c.0 = true;
         }
@@ -112,12 +110,12 @@ impl Shared {
             .fold(0.0f64, f64::max);
         let s = f64::EPSILON.sqrt() * s / (vmax * vmax);
         for sign in [1.0, -1.0] {
-            let mut xp = [0.0; NY];
+            let mut xp = S::State::zeros();
             for i in 0..n {
                 xp[i] = x[i] + sign * s * v[i];
             }
-            let mut fp = [0.0; NY];
-            if self.eval(&xp[..n], &mut fp[..n]) {
+            let mut fp = S::State::zeros();
+            if self.eval(&xp.as_slice()[..n], &mut fp.as_mut_slice()[..n]) {
                 for i in 0..n {
                     out[i] = sign * (fp[i] - c.2[i]) / s;
                 }
@@ -128,24 +126,24 @@ impl Shared {
     }
 }
 
-pub struct Bdf {
+pub struct Bdf<S: System> {
     pub t: f64,
     pub t_prev: f64,
     /// The step size the solver proposes next (a restart's hint).
     pub h: f64,
-    pub y: State,
-    pub y_prev: State,
+    pub y: S::State,
+    pub y_prev: S::State,
     /// diffsol's own times of the last two accepted points.
     t_int: f64,
     t_int_prev: f64,
     tstop: Option<f64>,
     cell: Option<SolverCell>,
-    shared: Option<Rc<Shared>>,
+    shared: Option<Rc<Shared<S>>>,
     /// diffsol's counters already added to the driver's statistics.
     counted: (u64, u64, u64, u64),
 }
 
-impl Clone for Bdf {
+impl<S: System> Clone for Bdf<S> {
     /// A restart point: the solver itself cannot be cloned (see the module comment).
     fn clone(&self) -> Self {
         Bdf {
@@ -156,13 +154,13 @@ impl Clone for Bdf {
     }
 }
 
-impl PartialEq for Bdf {
+impl<S: System> PartialEq for Bdf<S> {
     fn eq(&self, o: &Self) -> bool {
         (self.t, self.t_prev, self.h, self.y, self.y_prev) == (o.t, o.t_prev, o.h, o.y, o.y_prev)
     }
 }
 
-impl std::fmt::Debug for Bdf {
+impl<S: System> std::fmt::Debug for Bdf<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         f.debug_struct("Bdf")
             .field("t", &self.t)
@@ -182,13 +180,13 @@ fn copy_prefix(dst: &mut [f64], src: &[f64]) {
     }
 }
 
-fn stop_error(t: f64, message: String) -> StepError {
+fn stop_error<E>(t: f64, message: String) -> StepError<E> {
     StepError::Solver { t, message }
 }
 
-impl Bdf {
+impl<S: System> Bdf<S> {
     /// A method positioned at (t, y) that must be restarted before it steps.
-    pub fn at(t: f64, y: State, h: f64) -> Bdf {
+    pub fn at(t: f64, y: S::State, h: f64) -> Bdf<S> {
         Bdf {
             t,
             t_prev: t,
@@ -204,45 +202,55 @@ impl Bdf {
         }
     }
 
-    pub fn new() -> Bdf {
-        Bdf::at(0.0, [0.0; NY], 0.0)
+    pub fn new() -> Bdf<S> {
+        Bdf::at(0.0, S::State::zeros(), 0.0)
     }
+}
 
-    pub fn restart<S: System + Clone + 'static>(
+impl<S: System> Default for Bdf<S> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<S: System + Clone + 'static> Bdf<S> {
+    pub fn restart(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &S::State,
         h_hint: Option<f64>,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         self.flush_stats(stats);
-        let mut dy = [0.0; NY];
+        let mut dy = S::State::zeros();
         sys.rhs(y, &mut dy).map_err(StepError::Law)?;
         stats.rhs_evals += 1;
         let model = sys.clone();
         let n = sys.dim();
-        // The quadratures (external work, losses; smooth integrands) get 1 J as their scale.
-        let mut fd_scale = [1.0; NY];
+        // Components without error control (quadratures: external work, losses; smooth
+        // integrands) get 1 as their scale and rtol as their absolute tolerance.
+        let mut fd_scale = S::State::from_fn(|_| 1.0);
         let mut atol = vec![tol.rtol; n];
-        for (j, &i) in CONTROLLED[..tol.n_controlled].iter().enumerate() {
-            fd_scale[i] = tol.atol[j] / tol.rtol;
-            atol[i] = tol.atol[j];
+        for i in (0..n).filter(|&i| tol.atol[i] > 0.0) {
+            fd_scale[i] = tol.atol[i] / tol.rtol;
+            atol[i] = tol.atol[i];
         }
         let shared = Rc::new(Shared {
-            model: Box::new(move |y, dy| model.rhs(y, dy)),
+            model,
             y0: *y,
             rhs_evals: Cell::new(0),
             last_error: RefCell::new(None),
             fd_scale,
-            fd: RefCell::new((false, [0.0; NY], [0.0; NY])),
+            fd: RefCell::new((false, S::State::zeros(), S::State::zeros())),
             n,
         });
         let (s1, s2, s3) = (shared.clone(), shared.clone(), shared.clone());
         let rhs: RhsFn = Box::new(move |x, _p, _t, out| s1.eval_poison(x, out));
         let jac: JacFn = Box::new(move |x, _p, _t, v, out| s2.jac_mul(x, v, out));
-        let init: InitFn = Box::new(move |_p, _t, out| out.copy_from_slice(&s3.y0[..s3.n]));
+        let init: InitFn =
+            Box::new(move |_p, _t, out| out.copy_from_slice(&s3.y0.as_slice()[..s3.n]));
         let mut problem = OdeBuilder::<M>::new()
             .rtol(tol.rtol)
             .atol(atol)
@@ -302,12 +310,12 @@ impl Bdf {
     }
 
     /// One accepted step, never past t + h_max.
-    pub fn step<S: System>(
+    pub fn step(
         &mut self,
         _sys: &S,
         h_max: f64,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         let t_limit = if h_max.is_finite() {
             self.t + h_max
         } else {
@@ -322,7 +330,7 @@ impl Bdf {
         result
     }
 
-    fn step_to(&mut self, t_limit: f64) -> Result<(), StepError> {
+    fn step_to(&mut self, t_limit: f64) -> Result<(), StepError<S::Error>> {
         let (Some(cell), Some(shared)) = (self.cell.as_mut(), self.shared.clone()) else {
             return Err(stop_error(
                 self.t,
@@ -330,7 +338,7 @@ impl Bdf {
             ));
         };
         let t_int = self.t_int;
-        cell.with_dependent_mut(|_, s| -> Result<(), StepError> {
+        cell.with_dependent_mut(|_, s| -> Result<(), StepError<S::Error>> {
             // diffsol refuses a stop time within rounding of t, and a step shorter than its
             // minimum leaves that tiny h behind: such a limit counts as reached.
             let min_step = s.problem().ode_options.min_timestep;
@@ -351,12 +359,15 @@ impl Bdf {
                 let st = s.state();
                 let t_new = st.t;
                 let y_new = st.y.batch_as_slice(0);
-                let mut y_arr = [0.0; NY];
-                copy_prefix(&mut y_arr, y_new);
-                let mut check = [0.0; NY];
+                let mut y_arr = S::State::zeros();
+                copy_prefix(y_arr.as_mut_slice(), y_new);
+                let mut check = S::State::zeros();
                 // Newton's last iterate is never evaluated by diffsol: check it is in range.
-                let ok = y_arr.iter().all(|x| x.is_finite())
-                    && shared.eval(&y_arr[..shared.n], &mut check[..shared.n]);
+                let ok = y_arr.as_slice().iter().all(|x| x.is_finite())
+                    && shared.eval(
+                        &y_arr.as_slice()[..shared.n],
+                        &mut check.as_mut_slice()[..shared.n],
+                    );
                 if ok {
                     self.t_prev = self.t;
                     self.t_int_prev = self.t_int;
@@ -377,11 +388,14 @@ impl Bdf {
                     break;
                 }
                 let n = shared.n;
-                let mut dy = [0.0; NY];
-                shared.eval(&self.y[..n], &mut dy[..n]);
+                let mut dy = S::State::zeros();
+                shared.eval(&self.y.as_slice()[..n], &mut dy.as_mut_slice()[..n]);
                 let sm = s.state_mut();
-                sm.y.batch_as_mut_slice(0).copy_from_slice(&self.y[..n]);
-                sm.dy.batch_as_mut_slice(0).copy_from_slice(&dy[..n]);
+                sm.y.batch_as_mut_slice(0)
+                    .copy_from_slice(&self.y.as_slice()[..n]);
+                sm.dy
+                    .batch_as_mut_slice(0)
+                    .copy_from_slice(&dy.as_slice()[..n]);
                 *sm.t = self.t_int;
                 *sm.h = h_retry;
                 s.set_stop_time(t_limit)
@@ -399,15 +413,17 @@ impl Bdf {
     }
 
     /// The state's rate at the solver's last point (diffsol keeps it with the state).
-    pub fn rate_at_end(&self) -> State {
-        let mut out = [0.0; NY];
+    pub fn rate_at_end(&self) -> S::State {
+        let mut out = S::State::zeros();
         if let Some(cell) = self.cell.as_ref() {
-            cell.with_dependent(|_, s| copy_prefix(&mut out, s.state().dy.batch_as_slice(0)));
+            cell.with_dependent(|_, s| {
+                copy_prefix(out.as_mut_slice(), s.state().dy.batch_as_slice(0))
+            });
         }
         out
     }
 
-    pub fn interpolate(&self, t: f64) -> State {
+    pub fn interpolate(&self, t: f64) -> S::State {
         if t >= self.t_int || self.t_int == self.t_int_prev {
             return self.y;
         }
@@ -420,14 +436,14 @@ impl Bdf {
         let mut v = V::zeros(shared.n, Default::default());
         match cell.with_dependent(|_, s| s.interpolate_inplace(t, &mut v)) {
             Ok(()) => {
-                let mut out = [0.0; NY];
-                copy_prefix(&mut out, v.batch_as_slice(0));
+                let mut out = S::State::zeros();
+                copy_prefix(out.as_mut_slice(), v.batch_as_slice(0));
                 out
             }
             // Only after a failed, rolled-back step: linear between the accepted points.
             Err(_) => {
                 let th = (t - self.t_int_prev) / (self.t_int - self.t_int_prev);
-                std::array::from_fn(|i| self.y_prev[i] + th * (self.y[i] - self.y_prev[i]))
+                S::State::from_fn(|i| self.y_prev[i] + th * (self.y[i] - self.y_prev[i]))
             }
         }
     }

@@ -2,8 +2,7 @@
 //! (coefficients from Hairer, Norsett & Wanner, Solving ODEs I, sec. II.5 and II.6). The nodes c_i
 //! are not needed: between events and input changes the system is autonomous.
 
-use super::{error_norm, Stats, StepError, System};
-use crate::model::{State, NY};
+use super::{error_norm, Stats, StepError, System, Tolerance, Vector};
 
 const A21: f64 = 1.0 / 5.0;
 const A31: f64 = 3.0 / 40.0;
@@ -39,22 +38,22 @@ const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
 #[derive(Clone, Debug, PartialEq)]
-pub struct Dopri5 {
+pub struct Dopri5<Y> {
     pub t: f64,
     pub t_prev: f64,
     pub h: f64,
-    pub y: State,
+    pub y: Y,
     /// f(t, y): first stage of the next step (FSAL).
-    pub k1: State,
+    pub k1: Y,
     /// Continuous-extension coefficients of the last step.
-    pub rcont: [State; 5],
+    pub rcont: [Y; 5],
     pub facold: f64,
 }
 
 /// y + h sum(a k) over the first n components (the rest stay as in y).
-fn axpy(y: &State, h: f64, terms: &[(f64, &State)], n: usize) -> State {
+fn axpy<Y: Vector>(y: &Y, h: f64, terms: &[(f64, &Y)], n: usize) -> Y {
     let mut out = *y;
-    for (i, o) in out.iter_mut().enumerate().take(n) {
+    for (i, o) in out.as_mut_slice().iter_mut().enumerate().take(n) {
         let mut s = 0.0;
         for (a, k) in terms {
             s += a * k[i];
@@ -64,35 +63,41 @@ fn axpy(y: &State, h: f64, terms: &[(f64, &State)], n: usize) -> State {
     out
 }
 
-impl Dopri5 {
+impl<Y: Vector> Default for Dopri5<Y> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<Y: Vector> Dopri5<Y> {
     pub fn new() -> Self {
         Dopri5 {
             t: 0.0,
             t_prev: 0.0,
             h: 0.0,
-            y: [0.0; NY],
-            k1: [0.0; NY],
-            rcont: [[0.0; NY]; 5],
+            y: Y::zeros(),
+            k1: Y::zeros(),
+            rcont: [Y::zeros(); 5],
             facold: 1e-4,
         }
     }
 
     /// Starts at (t, y). With no hint the initial step follows Hairer's estimate from f and f'.
-    pub fn restart<S: System>(
+    pub fn restart<S: System<State = Y>>(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &Y,
         h_hint: Option<f64>,
-        tol: &super::Tolerance,
+        tol: &Tolerance<Y>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         self.t = t;
         self.t_prev = t;
         self.y = *y;
         sys.rhs(y, &mut self.k1).map_err(StepError::Law)?;
         stats.rhs_evals += 1;
-        self.rcont = [*y, [0.0; NY], [0.0; NY], [0.0; NY], [0.0; NY]];
+        self.rcont = [*y, Y::zeros(), Y::zeros(), Y::zeros(), Y::zeros()];
         self.facold = 1e-4;
         self.h = match h_hint {
             Some(h) => h,
@@ -102,13 +107,13 @@ impl Dopri5 {
     }
 
     /// One accepted step of at most h_max.
-    pub fn step<S: System>(
+    pub fn step<S: System<State = Y>>(
         &mut self,
         sys: &S,
         h_max: f64,
-        tol: &super::Tolerance,
+        tol: &Tolerance<Y>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         let y = self.y;
         let k1 = self.k1;
         // Only the components in use: the others have zero derivatives and stay as they are.
@@ -119,7 +124,7 @@ impl Dopri5 {
             if !(h > super::min_step(self.t)) {
                 return Err(last_err.unwrap_or(StepError::StepTooSmall { t: self.t, h }));
             }
-            let mut k = [[0.0; NY]; 6];
+            let mut k = [Y::zeros(); 6];
             let stages = (|| {
                 sys.rhs(&axpy(&y, h, &[(A21, &k1)], n), &mut k[0])?;
                 sys.rhs(&axpy(&y, h, &[(A31, &k1), (A32, &k[0])], n), &mut k[1])?;
@@ -174,14 +179,14 @@ impl Dopri5 {
                 continue;
             }
             let (k3, k4, k5, k6, k7) = (&k[1], &k[2], &k[3], &k[4], &k[5]);
-            let mut e = [0.0; NY];
+            let mut e = Y::zeros();
             for i in 0..n {
                 e[i] = h
                     * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             }
             let err = error_norm(&e, &y, &y1, tol);
             if err <= 1.0 {
-                let mut r = [[0.0; NY]; 5];
+                let mut r = [Y::zeros(); 5];
                 r[0] = y;
                 for i in 0..n {
                     let ydiff = y1[i] - y[i];
@@ -224,14 +229,14 @@ impl Dopri5 {
     }
 
     /// The rate of the continuous extension at t: f(t_prev) and f(t) at the step's ends.
-    pub fn derivative(&self, t: f64) -> State {
+    pub fn derivative(&self, t: f64) -> Y {
         let h = self.t - self.t_prev;
         if h == 0.0 {
             return self.k1;
         }
         let s = (t - self.t_prev) / h;
         let r = &self.rcont;
-        std::array::from_fn(|i| {
+        Y::from_fn(|i| {
             (r[1][i]
                 + (1.0 - 2.0 * s) * r[2][i]
                 + s * (2.0 - 3.0 * s) * r[3][i]
@@ -240,7 +245,7 @@ impl Dopri5 {
         })
     }
 
-    pub fn interpolate(&self, t: f64) -> State {
+    pub fn interpolate(&self, t: f64) -> Y {
         let h = self.t - self.t_prev;
         if h == 0.0 {
             return self.y;
@@ -248,8 +253,8 @@ impl Dopri5 {
         let s = (t - self.t_prev) / h;
         let s1 = 1.0 - s;
         let r = &self.rcont;
-        let mut out = [0.0; NY];
-        for i in 0..NY {
+        let mut out = Y::zeros();
+        for i in 0..Y::LEN {
             out[i] = r[0][i] + s * (r[1][i] + s1 * (r[2][i] + s * (r[3][i] + s1 * r[4][i])));
         }
         out

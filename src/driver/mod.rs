@@ -4,41 +4,84 @@
 //!
 //! Internal steps are independent of the communication steps: a step may reach past the
 //! communication point, and the next `advance` continues it as long as the inputs did not change.
+//!
+//! Nothing here knows the gear: a `System` brings its own state, event and error types, and
+//! `simulation.rs` connects the mesh (tests/driver_toys.rs drives an oscillator and a ball).
 
 pub mod bdf;
 pub mod dopri5;
 pub mod simulation;
 
-use crate::model::contact::N_EVENTS;
-use crate::model::mesh::{EventReport, LawOutOfRange, CONTROLLED, N_CONTROLLED};
-use crate::model::{State, NY};
+use std::fmt::Debug;
+use std::ops::{Index, IndexMut};
 
-/// What the driver needs of a model.
+/// A fixed-size vector of reals: a system's state, or the values of its event functions.
+pub trait Vector:
+    Copy + Debug + PartialEq + Index<usize, Output = f64> + IndexMut<usize> + 'static
+{
+    const LEN: usize;
+    fn zeros() -> Self;
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
+    fn as_slice(&self) -> &[f64];
+    fn as_mut_slice(&mut self) -> &mut [f64];
+}
+
+impl<const N: usize> Vector for [f64; N] {
+    const LEN: usize = N;
+    fn zeros() -> Self {
+        [0.0; N]
+    }
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self {
+        std::array::from_fn(f)
+    }
+    fn as_slice(&self) -> &[f64] {
+        self
+    }
+    fn as_mut_slice(&mut self) -> &mut [f64] {
+        self
+    }
+}
+
+/// What a system says about an event it handled.
+pub trait EventOutcome {
+    /// The event left the right-hand side as it was (only bookkeeping changed): the step stays
+    /// valid and the driver continues it without a restart.
+    fn smooth(&self) -> bool;
+}
+
+/// What the driver needs of a model: its state, its event functions and its error are the
+/// model's own types.
 pub trait System {
-    fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange>;
+    type State: Vector;
+    /// One value per event function.
+    type Margins: Vector;
+    /// Why the right-hand side cannot be evaluated (a law out of its range).
+    type Error: std::error::Error + Clone + PartialEq + 'static;
+    type Report: EventOutcome;
+    fn rhs(&self, y: &Self::State, dy: &mut Self::State) -> Result<(), Self::Error>;
     /// Signed distance of every event function to its crossing: >= 0 until it crosses.
-    fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]);
+    fn event_margins(&self, y: &Self::State, out: &mut Self::Margins);
     /// The margins at y and their time derivatives with state rate dy (NaN where unknown).
     fn event_margins_and_rates(
         &self,
-        y: &State,
-        dy: &State,
-        margins: &mut [f64; N_EVENTS],
-        rates: &mut [f64; N_EVENTS],
+        y: &Self::State,
+        dy: &Self::State,
+        margins: &mut Self::Margins,
+        rates: &mut Self::Margins,
     );
-    fn margin(&self, i: usize, y: &State) -> f64;
-    /// The event functions in use, a prefix of the arrays (the rest read as inactive).
+    fn margin(&self, i: usize, y: &Self::State) -> f64;
+    /// The event functions in use, a prefix of the margins (the rest read as inactive).
     fn n_events(&self) -> usize {
-        N_EVENTS
+        Self::Margins::LEN
     }
     /// Applies event i at y; the event may change y (an impact changes speeds).
-    fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange>;
+    fn handle_event(&mut self, i: usize, y: &mut Self::State) -> Result<Self::Report, Self::Error>;
     /// Checks an accepted state against limits the right-hand side does not see.
-    fn check_state(&self, y: &State) -> Result<(), LawOutOfRange>;
+    fn check_state(&self, y: &Self::State) -> Result<(), Self::Error>;
     /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
     /// explicit method stays inside its stability region.
-    fn max_step(&self, y: &State, explicit: bool) -> f64;
-    /// The number of state components in use, a prefix of `State`.
+    fn max_step(&self, y: &Self::State, explicit: bool) -> f64;
+    /// The number of state components in use, a prefix of the state.
     fn dim(&self) -> usize;
     /// Takes in the piece [t0, t1] of a step between events, on which `y` is the dense output
     /// and the modes hold (the run's statistics). Systems that keep none ignore it.
@@ -46,8 +89,8 @@ pub trait System {
         &mut self,
         _t0: f64,
         _t1: f64,
-        _y: &dyn Fn(f64) -> State,
-    ) -> Result<(), LawOutOfRange> {
+        _y: &dyn Fn(f64) -> Self::State,
+    ) -> Result<(), Self::Error> {
         Ok(())
     }
 }
@@ -63,18 +106,17 @@ pub struct Stats {
 }
 
 #[derive(Clone, Debug, PartialEq)]
-pub struct Tolerance {
+pub struct Tolerance<Y> {
     pub rtol: f64,
-    /// Absolute tolerances of the components `CONTROLLED[..n_controlled]`.
-    pub atol: [f64; N_CONTROLLED],
-    pub n_controlled: usize,
+    /// Absolute tolerance of each component; 0: not under error control.
+    pub atol: Y,
 }
 
 /// Why a method could not take its step (the driver adds the context).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum StepError {
+pub enum StepError<E> {
     #[error(transparent)]
-    Law(LawOutOfRange),
+    Law(E),
     #[error("at t = {t} s the step fell to {h} s without meeting the tolerance")]
     StepTooSmall { t: f64, h: f64 },
     /// The implicit solver (diffsol) failed otherwise.
@@ -83,10 +125,10 @@ pub enum StepError {
 }
 
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum DriverError {
+pub enum DriverError<E> {
     /// The contact law left its range at time t.
     #[error("at t = {t} s: {err}")]
-    Law { t: f64, err: LawOutOfRange },
+    Law { t: f64, err: E },
     #[error("at t = {t} s the integrator's step fell to {h} s without meeting the tolerance")]
     StepTooSmall { t: f64, h: f64 },
     #[error("at t = {t} s the implicit solver failed: {message}")]
@@ -99,15 +141,16 @@ pub enum DriverError {
     TooMuchWork { t: f64, steps: u64, events: u64 },
 }
 
-/// Weighted RMS norm over the controlled components.
-pub fn error_norm(e: &State, y0: &State, y1: &State, tol: &Tolerance) -> f64 {
-    let mut sum = 0.0;
-    for (j, &i) in CONTROLLED[..tol.n_controlled].iter().enumerate() {
-        let sk = tol.atol[j] + tol.rtol * y0[i].abs().max(y1[i].abs());
+/// Weighted RMS norm over the controlled components (those with an absolute tolerance).
+pub fn error_norm<Y: Vector>(e: &Y, y0: &Y, y1: &Y, tol: &Tolerance<Y>) -> f64 {
+    let (mut sum, mut n) = (0.0, 0);
+    for i in (0..Y::LEN).filter(|&i| tol.atol[i] > 0.0) {
+        let sk = tol.atol[i] + tol.rtol * y0[i].abs().max(y1[i].abs());
         let r = e[i] / sk;
         sum += r * r;
+        n += 1;
     }
-    (sum / tol.n_controlled as f64).sqrt()
+    (sum / n as f64).sqrt()
 }
 
 /// Smallest meaningful step at time t: below it t + h == t in floating point, or nearly.
@@ -118,13 +161,13 @@ pub fn min_step(t: f64) -> f64 {
 /// Hairer's starting step estimate (Solving ODEs I, II.4) for a method of the given order.
 pub fn initial_step<S: System>(
     sys: &S,
-    y: &State,
-    f0: &State,
+    y: &S::State,
+    f0: &S::State,
     order: i32,
-    tol: &Tolerance,
+    tol: &Tolerance<S::State>,
     stats: &mut Stats,
-) -> Result<f64, StepError> {
-    let zero = [0.0; NY];
+) -> Result<f64, StepError<S::Error>> {
+    let zero = S::State::zeros();
     let d0 = error_norm(y, &zero, &zero, tol);
     let d1 = error_norm(f0, &zero, &zero, tol);
     let h0 = if d0 < 1e-5 || d1 < 1e-5 {
@@ -133,11 +176,11 @@ pub fn initial_step<S: System>(
         0.01 * d0 / d1
     };
     let h0 = h0.min(sys.max_step(y, true));
-    let y1: State = std::array::from_fn(|i| y[i] + h0 * f0[i]);
-    let mut f1 = [0.0; NY];
+    let y1 = S::State::from_fn(|i| y[i] + h0 * f0[i]);
+    let mut f1 = S::State::zeros();
     sys.rhs(&y1, &mut f1).map_err(StepError::Law)?;
     stats.rhs_evals += 1;
-    let df: State = std::array::from_fn(|i| f1[i] - f0[i]);
+    let df = S::State::from_fn(|i| f1[i] - f0[i]);
     let d2 = error_norm(&df, &zero, &zero, tol) / h0;
     let h1 = if d1.max(d2) <= 1e-15 {
         (h0 * 1e-3).max(1e-6)
@@ -150,149 +193,149 @@ pub fn initial_step<S: System>(
 /// The integration methods, chosen by the `solver` parameter: the hand-written Dormand-Prince
 /// and diffsol's BDF (docs/integrators.md has the measurements behind both choices).
 #[derive(Clone, Debug, PartialEq)]
-pub enum Method {
-    Dopri5(dopri5::Dopri5),
-    Bdf(bdf::Bdf),
+pub enum Method<S: System> {
+    Dopri5(dopri5::Dopri5<S::State>),
+    Bdf(bdf::Bdf<S>),
 }
 
 /// What the driver reads of a method: its last step and the dense output over it.
-pub trait DenseOutput {
+pub trait DenseOutput<Y> {
     /// The time the method has integrated to, and the start of its last step.
     fn t(&self) -> f64;
     fn t_prev(&self) -> f64;
-    fn y(&self) -> &State;
+    fn y(&self) -> &Y;
     /// The step size it will try next.
     fn h(&self) -> f64;
     /// The state's rate at the end of the last step (at a restart: at the restart point).
-    fn rate_at_end(&self) -> State;
+    fn rate_at_end(&self) -> Y;
     /// The dense output and its rate at time t inside the last step.
-    fn interpolate(&self, t: f64) -> State;
-    fn derivative(&self, t: f64) -> State;
+    fn interpolate(&self, t: f64) -> Y;
+    fn derivative(&self, t: f64) -> Y;
 }
 
 /// How the driver steps a method on a system.
-pub trait Stepper<S: System>: DenseOutput {
+pub trait Stepper<S: System>: DenseOutput<S::State> {
     /// Starts at (t, y), with a step-size hint (else the method's own estimate).
     fn restart(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &S::State,
         h: Option<f64>,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError>;
+    ) -> Result<(), StepError<S::Error>>;
     /// One accepted step of at most h_max.
     fn step(
         &mut self,
         sys: &S,
         h_max: f64,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError>;
+    ) -> Result<(), StepError<S::Error>>;
 }
 
-impl DenseOutput for dopri5::Dopri5 {
+impl<Y: Vector> DenseOutput<Y> for dopri5::Dopri5<Y> {
     fn t(&self) -> f64 {
         self.t
     }
     fn t_prev(&self) -> f64 {
         self.t_prev
     }
-    fn y(&self) -> &State {
+    fn y(&self) -> &Y {
         &self.y
     }
     fn h(&self) -> f64 {
         self.h
     }
-    fn rate_at_end(&self) -> State {
+    fn rate_at_end(&self) -> Y {
         self.k1
     }
-    fn interpolate(&self, t: f64) -> State {
+    fn interpolate(&self, t: f64) -> Y {
         dopri5::Dopri5::interpolate(self, t)
     }
-    fn derivative(&self, t: f64) -> State {
+    fn derivative(&self, t: f64) -> Y {
         dopri5::Dopri5::derivative(self, t)
     }
 }
 
-impl<S: System> Stepper<S> for dopri5::Dopri5 {
+impl<S: System> Stepper<S> for dopri5::Dopri5<S::State> {
     fn restart(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &S::State,
         h: Option<f64>,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         dopri5::Dopri5::restart(self, sys, t, y, h, tol, stats)
     }
     fn step(
         &mut self,
         sys: &S,
         h_max: f64,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         dopri5::Dopri5::step(self, sys, h_max, tol, stats)
     }
 }
 
-impl DenseOutput for bdf::Bdf {
+impl<S: System + Clone + 'static> DenseOutput<S::State> for bdf::Bdf<S> {
     fn t(&self) -> f64 {
         self.t
     }
     fn t_prev(&self) -> f64 {
         self.t_prev
     }
-    fn y(&self) -> &State {
+    fn y(&self) -> &S::State {
         &self.y
     }
     fn h(&self) -> f64 {
         self.h
     }
-    fn rate_at_end(&self) -> State {
+    fn rate_at_end(&self) -> S::State {
         bdf::Bdf::rate_at_end(self)
     }
-    fn interpolate(&self, t: f64) -> State {
+    fn interpolate(&self, t: f64) -> S::State {
         bdf::Bdf::interpolate(self, t)
     }
     /// diffsol has no derivative of its interpolant: a central difference inside the step.
-    fn derivative(&self, t: f64) -> State {
+    fn derivative(&self, t: f64) -> S::State {
         let (t0, t1) = (self.t_prev, self.t);
         let d = 1e-4 * (t1 - t0);
         let (a, b) = ((t - d).max(t0), (t + d).min(t1));
         let (ya, yb) = (self.interpolate(a), self.interpolate(b));
-        std::array::from_fn(|i| (yb[i] - ya[i]) / (b - a))
+        S::State::from_fn(|i| (yb[i] - ya[i]) / (b - a))
     }
 }
 
-impl<S: System + Clone + 'static> Stepper<S> for bdf::Bdf {
+impl<S: System + Clone + 'static> Stepper<S> for bdf::Bdf<S> {
     fn restart(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &S::State,
         h: Option<f64>,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         bdf::Bdf::restart(self, sys, t, y, h, tol, stats)
     }
     fn step(
         &mut self,
         sys: &S,
         h_max: f64,
-        _tol: &Tolerance,
+        _tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
+    ) -> Result<(), StepError<S::Error>> {
         bdf::Bdf::step(self, sys, h_max, stats)
     }
 }
 
-impl Method {
-    pub fn from_solver(solver: i32) -> Method {
+impl<S: System + Clone + 'static> Method<S> {
+    pub fn from_solver(solver: i32) -> Method<S> {
         match solver {
             2 => Method::Bdf(bdf::Bdf::new()),
             _ => Method::Dopri5(dopri5::Dopri5::new()),
@@ -300,14 +343,14 @@ impl Method {
     }
 
     /// The one place that tells the methods apart.
-    fn dense(&self) -> &dyn DenseOutput {
+    fn dense(&self) -> &dyn DenseOutput<S::State> {
         match self {
             Method::Dopri5(m) => m,
             Method::Bdf(m) => m,
         }
     }
 
-    fn stepper<S: System + Clone + 'static>(&mut self) -> &mut dyn Stepper<S> {
+    fn stepper(&mut self) -> &mut dyn Stepper<S> {
         match self {
             Method::Dopri5(m) => m,
             Method::Bdf(m) => m,
@@ -322,7 +365,7 @@ impl Method {
         self.dense().t_prev()
     }
 
-    fn y(&self) -> &State {
+    fn y(&self) -> &S::State {
         self.dense().y()
     }
 
@@ -330,41 +373,41 @@ impl Method {
         self.dense().h()
     }
 
-    fn rate_at_end(&self) -> State {
+    fn rate_at_end(&self) -> S::State {
         self.dense().rate_at_end()
     }
 
-    fn derivative(&self, t: f64) -> State {
+    fn derivative(&self, t: f64) -> S::State {
         self.dense().derivative(t)
     }
 
-    fn interpolate(&self, t: f64) -> State {
+    fn interpolate(&self, t: f64) -> S::State {
         if t == self.t() {
             return *self.y();
         }
         self.dense().interpolate(t)
     }
 
-    fn restart<S: System + Clone + 'static>(
+    fn restart(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &S::State,
         h: Option<f64>,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
-        self.stepper::<S>().restart(sys, t, y, h, tol, stats)
+    ) -> Result<(), StepError<S::Error>> {
+        self.stepper().restart(sys, t, y, h, tol, stats)
     }
 
-    fn step<S: System + Clone + 'static>(
+    fn step(
         &mut self,
         sys: &S,
         h_max: f64,
-        tol: &Tolerance,
+        tol: &Tolerance<S::State>,
         stats: &mut Stats,
-    ) -> Result<(), StepError> {
-        self.stepper::<S>().step(sys, h_max, tol, stats)
+    ) -> Result<(), StepError<S::Error>> {
+        self.stepper().step(sys, h_max, tol, stats)
     }
 }
 
@@ -372,20 +415,26 @@ impl Method {
 /// the start of the next: kept so that each step evaluates them once. Recomputed when missing,
 /// so it never makes two drivers unequal; an FMU state saves it, because a recomputation from
 /// the dense output rounds differently.
-#[derive(Clone, Debug, Default)]
-pub struct MarginCache(Option<(f64, [f64; N_EVENTS], [f64; N_EVENTS])>);
+#[derive(Clone, Debug)]
+pub struct MarginCache<M>(Option<(f64, M, M)>);
 
-impl MarginCache {
-    pub fn new(v: Option<(f64, [f64; N_EVENTS], [f64; N_EVENTS])>) -> MarginCache {
+impl<M> Default for MarginCache<M> {
+    fn default() -> Self {
+        MarginCache(None)
+    }
+}
+
+impl<M: Copy> MarginCache<M> {
+    pub fn new(v: Option<(f64, M, M)>) -> MarginCache<M> {
         MarginCache(v)
     }
 
-    pub fn get(&self) -> Option<(f64, [f64; N_EVENTS], [f64; N_EVENTS])> {
+    pub fn get(&self) -> Option<(f64, M, M)> {
         self.0
     }
 }
 
-impl PartialEq for MarginCache {
+impl<M> PartialEq for MarginCache<M> {
     fn eq(&self, _: &Self) -> bool {
         true
     }
@@ -455,9 +504,9 @@ impl Default for WorkCap {
 }
 
 #[derive(Debug, PartialEq)]
-pub struct Driver {
-    pub method: Method,
-    pub tol: Tolerance,
+pub struct Driver<S: System> {
+    pub method: Method<S>,
+    pub tol: Tolerance<S::State>,
     /// The FMU's time; the method may have stepped beyond it.
     pub t: f64,
     /// The method's step must be redone from `t` (inputs changed, or not started).
@@ -467,12 +516,12 @@ pub struct Driver {
     pub cap: WorkCap,
     /// Never step past this time (the experiment's stop time, if any).
     pub t_stop: f64,
-    pub(crate) y_start: State,
+    pub(crate) y_start: S::State,
     /// `System::max_step` as last computed: it costs a contact-law evaluation, and the limits it
     /// holds (stiffness, contact speed) change slowly, so it is renewed at restarts and every
     /// `STEP_LIMIT_AGE` accepted steps. NaN: not computed yet.
     pub(crate) step_limit: f64,
-    pub(crate) start: MarginCache,
+    pub(crate) start: MarginCache<S::Margins>,
     /// A cap on the internal step (tests force small steps with it); infinite by default.
     pub max_step: f64,
     /// `System::observe` has seen the dense output up to this time.
@@ -482,7 +531,7 @@ pub struct Driver {
     pub search_from: f64,
 }
 
-impl Clone for Driver {
+impl<S: System + Clone + 'static> Clone for Driver<S> {
     /// A Dormand-Prince driver clones exactly. diffsol's solver cannot be cloned, so a BDF driver
     /// clones into a restart point at its current state (see `Simulation::make_restart_point_if_needed`).
     /// Inlined into the caller's slot: `fmi2DoStep` copies the simulation before every step
@@ -522,8 +571,8 @@ impl Clone for Driver {
     }
 }
 
-impl Driver {
-    pub fn new(method: Method, tol: Tolerance, t0: f64, y0: State) -> Driver {
+impl<S: System + Clone + 'static> Driver<S> {
+    pub fn new(method: Method<S>, tol: Tolerance<S::State>, t0: f64, y0: S::State) -> Driver<S> {
         Driver {
             method,
             tol,
@@ -543,7 +592,7 @@ impl Driver {
     }
 
     /// The state at the FMU's current time.
-    pub fn state(&self) -> State {
+    pub fn state(&self) -> S::State {
         if self.needs_restart {
             self.y_start
         } else {
@@ -558,7 +607,7 @@ impl Driver {
 
     /// Hands the dense output from the last observation up to t (inside the current step) to
     /// the system.
-    pub fn observe_to<S: System>(&mut self, sys: &mut S, t: f64) -> Result<(), DriverError> {
+    pub fn observe_to(&mut self, sys: &mut S, t: f64) -> Result<(), DriverError<S::Error>> {
         if !self.needs_restart && t > self.observed {
             let method = &self.method;
             sys.observe(self.observed, t, &|x| method.interpolate(x))
@@ -579,12 +628,12 @@ impl Driver {
     }
 
     /// Advances to t_end, handling every event on the way. `log` receives each event.
-    pub fn advance<S: System + Clone + 'static>(
+    pub fn advance(
         &mut self,
         sys: &mut S,
         t_end: f64,
-        log: &mut dyn FnMut(f64, &EventReport),
-    ) -> Result<(), DriverError> {
+        log: &mut dyn FnMut(f64, &S::Report),
+    ) -> Result<(), DriverError<S::Error>> {
         let (steps0, events0) = (self.stats.steps + self.stats.rejected, self.stats.events);
         if self.needs_restart {
             let h = if self.method.h() > 0.0 {
@@ -611,7 +660,7 @@ impl Driver {
                 self.stats.events += 1;
                 log(ev.t, &report);
                 self.t = ev.t;
-                if report.smooth && y == y_event {
+                if report.smooth() && y == y_event {
                     // The step is still a step of the same right-hand side: search the rest of
                     // it for the next event under the new modes.
                     self.search_from = ev.t;
@@ -654,7 +703,7 @@ impl Driver {
     }
 
     /// Finds the first event from `search_from` in the last step, and checks the state there.
-    fn locate_and_check<S: System>(&mut self, sys: &S) -> Result<(), DriverError> {
+    fn locate_and_check(&mut self, sys: &S) -> Result<(), DriverError<S::Error>> {
         self.pending = self.locate(sys);
         // A step may overshoot past an event into states the modes before it never reach:
         // the limits hold up to the first event.
@@ -666,13 +715,13 @@ impl Driver {
             .map_err(|err| DriverError::Law { t, err })
     }
 
-    fn restart<S: System + Clone + 'static>(
+    fn restart(
         &mut self,
         sys: &S,
         t: f64,
-        y: &State,
+        y: &S::State,
         h: Option<f64>,
-    ) -> Result<(), DriverError> {
+    ) -> Result<(), DriverError<S::Error>> {
         self.method
             .restart(sys, t, y, h, &self.tol, &mut self.stats)
             .map_err(|e| self.step_error(e))?;
@@ -686,7 +735,7 @@ impl Driver {
         Ok(())
     }
 
-    fn step_error(&self, e: StepError) -> DriverError {
+    fn step_error(&self, e: StepError<S::Error>) -> DriverError<S::Error> {
         match e {
             StepError::Law(err) => DriverError::Law {
                 t: self.method.t(),
@@ -704,11 +753,11 @@ impl Driver {
     /// cubic's error at the midpoint), the margin itself near that minimum, after one Newton
     /// step on its rate. So a margin that dips below zero and comes back inside one step (a
     /// graze) is found. The first sample below zero brackets the root.
-    fn locate<S: System>(&mut self, sys: &S) -> Option<PendingEvent> {
+    fn locate(&mut self, sys: &S) -> Option<PendingEvent> {
         let (t0, t1) = (self.search_from, self.method.t());
         let (h, tm) = (t1 - t0, 0.5 * (t0 + t1));
-        let mut end = [0.0; N_EVENTS];
-        let mut end_rate = [0.0; N_EVENTS];
+        let mut end = S::Margins::zeros();
+        let mut end_rate = S::Margins::zeros();
         sys.event_margins_and_rates(
             self.method.y(),
             &self.method.rate_at_end(),
@@ -718,7 +767,7 @@ impl Driver {
         let (start, start_rate) = match self.start.0.take() {
             Some((t, m, r)) if t == t0 => (m, r),
             _ => {
-                let (mut m, mut r) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+                let (mut m, mut r) = (S::Margins::zeros(), S::Margins::zeros());
                 let y0 = self.method.interpolate(t0);
                 sys.event_margins_and_rates(&y0, &self.method.derivative(t0), &mut m, &mut r);
                 (m, r)
@@ -742,7 +791,7 @@ impl Driver {
             self.start = MarginCache(Some((t1, end, end_rate)));
             return None;
         }
-        let mut mid = [0.0; N_EVENTS];
+        let mut mid = S::Margins::zeros();
         sys.event_margins(&self.method.interpolate(tm), &mut mid);
         let mut best: Option<PendingEvent> = None;
         for i in (0..n).filter(|&i| may_dip(i) || mid[i] < 0.0) {
@@ -788,18 +837,10 @@ impl Driver {
 
     /// The margin of event i near the cubic's interior minimum at s (curvature `curv` per s^2):
     /// one Newton step on the margin's true rate there, and the lower of the two values.
-    fn graze_sample<S: System>(
-        &self,
-        sys: &S,
-        i: usize,
-        t0: f64,
-        h: f64,
-        s: f64,
-        curv: f64,
-    ) -> (f64, f64) {
+    fn graze_sample(&self, sys: &S, i: usize, t0: f64, h: f64, s: f64, curv: f64) -> (f64, f64) {
         let t = t0 + s * h;
         let y = self.method.interpolate(t);
-        let (mut margins, mut rates) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+        let (mut margins, mut rates) = (S::Margins::zeros(), S::Margins::zeros());
         sys.event_margins_and_rates(&y, &self.method.derivative(t), &mut margins, &mut rates);
         let m = margins[i];
         let s2 = s - h * rates[i] / curv;
@@ -817,15 +858,7 @@ impl Driver {
 
     /// Illinois regula falsi on the dense output: returns a time at which the function has
     /// crossed, within a few ulp of the root.
-    fn root<S: System>(
-        &self,
-        sys: &S,
-        i: usize,
-        mut a: f64,
-        mut fa: f64,
-        mut b: f64,
-        mut fb: f64,
-    ) -> f64 {
+    fn root(&self, sys: &S, i: usize, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
         let mut side = 0;
         for _ in 0..200 {
             if b - a <= 4.0 * f64::EPSILON * b.abs().max(1e-300) {

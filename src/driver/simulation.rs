@@ -1,15 +1,24 @@
 //! A model and its driver together: what the FMI layer steps. Also connects the model to the
 //! driver's `System` trait.
 
-use super::{Driver, DriverError, Method, System, Tolerance};
+use super::{Driver, DriverError, EventOutcome, Method, System, Tolerance};
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::Ramp;
-use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::mesh::{EventReport, LawOutOfRange, Ramp, CONTROLLED};
 use crate::model::statistics::Statistics;
 use crate::model::{Loads, Mesh, ModelError, State};
 use crate::variables::{Inputs, Params};
 
+impl EventOutcome for EventReport {
+    fn smooth(&self) -> bool {
+        self.smooth
+    }
+}
+
 impl System for Mesh {
+    type State = State;
+    type Margins = [f64; N_EVENTS];
+    type Error = LawOutOfRange;
+    type Report = EventReport;
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         Mesh::rhs(self, y, dy)
     }
@@ -81,7 +90,18 @@ impl System for Mesh {
 #[derive(Debug, PartialEq)]
 pub struct Simulation {
     pub mesh: Mesh,
-    pub driver: Driver,
+    pub driver: Driver<Mesh>,
+}
+
+/// The driver's tolerances for the mesh at rel_tol: the mesh's absolute tolerances of its
+/// controlled components, 0 (no control) for the others.
+pub fn tolerance(mesh: &Mesh, rtol: f64) -> Tolerance<State> {
+    let abs = mesh.abs_tol(rtol);
+    let mut atol = [0.0; crate::model::NY];
+    for (j, &i) in CONTROLLED[..mesh.n_controlled()].iter().enumerate() {
+        atol[i] = abs[j];
+    }
+    Tolerance { rtol, atol }
 }
 
 impl Clone for Simulation {
@@ -120,11 +140,7 @@ impl Simulation {
     ) -> Result<Simulation, ModelError> {
         let (mesh, mut y0) = Mesh::new(p, inputs)?;
         y0[crate::model::mesh::TIME] = t0;
-        let tol = Tolerance {
-            rtol: rel_tol,
-            atol: mesh.abs_tol(rel_tol),
-            n_controlled: mesh.n_controlled(),
-        };
+        let tol = tolerance(&mesh, rel_tol);
         let driver = Driver::new(Method::from_solver(p.solver), tol, t0, y0);
         Ok(Simulation { mesh, driver })
     }
@@ -146,7 +162,7 @@ impl Simulation {
             self.mesh.set_loads(loads, &mut y);
             // Releasing a rigid lock may move the state onto the other flank (two-sided contact).
             self.driver.y_start = y;
-            self.driver.tol.atol = self.mesh.abs_tol(self.driver.tol.rtol);
+            self.driver.tol = tolerance(&self.mesh, self.driver.tol.rtol);
         }
     }
 
@@ -193,7 +209,7 @@ impl Simulation {
         &mut self,
         t_end: f64,
         log: &mut dyn FnMut(f64, &EventReport),
-    ) -> Result<(), DriverError> {
+    ) -> Result<(), DriverError<LawOutOfRange>> {
         self.driver.advance(&mut self.mesh, t_end, log)
     }
 }

@@ -13,7 +13,7 @@ use crate::driver::dopri5::Dopri5;
 use crate::driver::simulation::Simulation;
 use crate::driver::{MarginCache, Method, PendingEvent, Stats, WorkCap};
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::{Ramp, N_CONTROLLED};
+use crate::model::mesh::Ramp;
 use crate::model::{Loads, NY};
 use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
@@ -214,9 +214,12 @@ fn check_values(s: &Simulation) -> Result<(), String> {
             "a value of the simulation state is not finite ({bad})"
         ));
     }
+    // The controlled components are the mesh's: a positive, finite tolerance there, 0 elsewhere.
+    let controlled = crate::driver::simulation::tolerance(m, d.tol.rtol).atol;
     let tol_ok = d.tol.rtol >= 1e-14
         && d.tol.rtol <= 0.1
-        && d.tol.atol.iter().all(|a| *a > 0.0 && a.is_finite());
+        && (d.tol.atol.iter().zip(&controlled))
+            .all(|(a, c)| a.is_finite() && (*a > 0.0) == (*c > 0.0) && *a >= 0.0);
     if !tol_ok || !(h >= 0.0) || !(d.t_stop >= d.t) {
         return Err(format!(
             "invalid integrator settings (rel_tol {}, step {h}, stop time {})",
@@ -255,7 +258,7 @@ fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simula
     }
     let d = &mut s.driver;
     d.tol.rtol = r.f()?;
-    d.tol.atol = r.fs::<N_CONTROLLED>()?;
+    d.tol.atol = r.fs::<NY>()?;
     d.t = r.f()?;
     d.needs_restart = r.b()?;
     let (has_pending, pt, pi) = (r.b()?, r.f()?, r.u()? as usize);

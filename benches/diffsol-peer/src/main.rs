@@ -27,7 +27,8 @@ use diffsol_peer::peer::{self, MeshRhs, PeerOptions, RunOut, Scene};
 use spur_gear_mesh::driver::bdf::Bdf;
 use spur_gear_mesh::driver::dopri5::Dopri5;
 use spur_gear_mesh::driver::simulation::Simulation;
-use spur_gear_mesh::driver::{Stats, Tolerance};
+use spur_gear_mesh::driver::simulation::tolerance;
+use spur_gear_mesh::driver::Stats;
 use spur_gear_mesh::model::mesh::N_CONTROLLED;
 use spur_gear_mesh::variables::{Inputs, Params, VarType, VARIABLES};
 
@@ -398,11 +399,7 @@ fn restart_cost(opts: PeerOptions) {
     let mut sim = Simulation::new(&p, &sc.inputs, 0.0, rtol).unwrap();
     sim.advance(0.025, &mut |_, _| {}).unwrap();
     let (mesh, y, t) = (sim.mesh.clone(), sim.driver.state(), 0.025);
-    let tol = Tolerance {
-        rtol,
-        atol: mesh.abs_tol(rtol),
-        n_controlled: mesh.n_controlled(),
-    };
+    let tol = tolerance(&mesh, rtol);
     let h = 1e-6;
     let (batch, rounds) = (500, 9);
     let time = |f: &mut dyn FnMut()| {
@@ -442,7 +439,7 @@ fn restart_cost(opts: PeerOptions) {
         let model = std::rc::Rc::new(MeshRhs {
             mesh: std::cell::RefCell::new(mesh.clone()),
         });
-        let mut m = DiffsolMethod::new(kind, model.clone(), rtol, tol.atol.to_vec());
+        let mut m = DiffsolMethod::new(kind, model.clone(), rtol, mesh.abs_tol(rtol).to_vec());
         let y4 = &y[..N_CONTROLLED];
         let us = time(&mut || {
             m.restart_with_h(
