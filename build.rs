@@ -5,17 +5,7 @@ use std::path::PathBuf;
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let version = std::env::var("CARGO_PKG_VERSION").unwrap();
-    let table = model_description::load();
-    std::fs::write(
-        out.join("variables.rs"),
-        model_description::rust_bindings(&table, &version),
-    )
-    .unwrap();
-    std::fs::write(
-        out.join("modelDescription.xml"),
-        model_description::model_description_xml(&table, &version),
-    )
-    .unwrap();
+    model_description::write_generated(&model_description::load(), &version, &out);
     println!("cargo:rerun-if-changed=modelDescription/variables.toml");
     println!("cargo:rerun-if-changed=modelDescription/src/lib.rs");
     println!("cargo:rerun-if-changed=build.rs");

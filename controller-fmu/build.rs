@@ -6,17 +6,7 @@ fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let version = std::env::var("CARGO_PKG_VERSION").unwrap();
     let text = std::fs::read_to_string("variables.toml").expect("controller-fmu/variables.toml");
-    let table = model_description::parse(&text);
-    std::fs::write(
-        out.join("variables.rs"),
-        model_description::rust_bindings(&table, &version),
-    )
-    .unwrap();
-    std::fs::write(
-        out.join("modelDescription.xml"),
-        model_description::model_description_xml(&table, &version),
-    )
-    .unwrap();
+    model_description::write_generated(&model_description::parse(&text), &version, &out);
     println!("cargo:rerun-if-changed=variables.toml");
     println!("cargo:rerun-if-changed=../modelDescription/src/lib.rs");
     println!("cargo:rerun-if-changed=build.rs");

@@ -152,6 +152,17 @@ pub fn load() -> Table {
     parse(TABLE_TOML)
 }
 
+/// What a build script writes into OUT_DIR: `variables.rs` (the bindings) and
+/// `modelDescription.xml`, both from the same table.
+pub fn write_generated(t: &Table, version: &str, out: &std::path::Path) {
+    std::fs::write(out.join("variables.rs"), rust_bindings(t, version)).expect("OUT_DIR");
+    std::fs::write(
+        out.join("modelDescription.xml"),
+        model_description_xml(t, version),
+    )
+    .expect("OUT_DIR");
+}
+
 /// A table from its TOML text (panics with the reason on a malformed one: build scripts call it).
 pub fn parse(text: &str) -> Table {
     let mut table: Table = toml::from_str(text).expect("the variable table does not parse");

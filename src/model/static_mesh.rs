@@ -153,8 +153,8 @@ mod tests {
     /// With Johnson's law (independent of position) two pairs share W equally: the balance
     /// with two pairs is the single-pair balance at W/2, and the single-pair stiffness is the
     /// same everywhere on the segment.
-    #[test]
-    fn two_pairs_share_the_load_under_a_position_independent_law() {
+    /// The standard pair with Johnson's law at 300 N/mm.
+    fn johnson_pair() -> (Geometry, JohnsonLaw, f64) {
         let p = Params {
             geometry: 2,
             ..Params::default()
@@ -165,7 +165,12 @@ mod tests {
             e_star: g.e_star,
             width: p.width,
         };
-        let w = 3e5 * p.width;
+        (g, law, 3e5 * p.width)
+    }
+
+    #[test]
+    fn two_pairs_share_the_load_under_a_position_independent_law() {
+        let (g, law, w) = johnson_pair();
         // The middle of the double-contact zone [s_a, s_b - p_b].
         let s0 = g.s_a + 0.5 * (g.s_b - g.p_b - g.s_a);
         let two = balance(&law, &g, s0, w);
@@ -188,17 +193,7 @@ mod tests {
     /// up to W.
     #[test]
     fn a_relieved_pair_carries_less_or_nothing() {
-        let p = Params {
-            geometry: 2,
-            ..Params::default()
-        };
-        let g = Geometry::new(&p).unwrap();
-        let law = JohnsonLaw {
-            l: g.l,
-            e_star: g.e_star,
-            width: p.width,
-        };
-        let w = 3e5 * p.width;
+        let (g, law, w) = johnson_pair();
         let s0 = g.s_a + 0.25 * (g.s_b - g.p_b - g.s_a);
         let relieved = |e: f64| move |s: f64| if s < s0 + 0.5 * g.p_b { e } else { 0.0 };
         let alone = solve(&law, &[(s0 + g.p_b, 0.0)], w);
