@@ -32,11 +32,12 @@ impl Writer {
     pub fn fs(&mut self, xs: &[f64]) {
         xs.iter().for_each(|&x| self.f(x));
     }
-    /// Text: its length in bytes, then the bytes padded with zeros to whole words.
-    pub fn s(&mut self, x: &str) {
-        self.u(x.len() as u64);
-        self.0.extend_from_slice(x.as_bytes());
-        self.0.resize(self.0.len().next_multiple_of(8), 0);
+    /// Bytes as they are (a payload serialized elsewhere).
+    pub fn bytes(&mut self, b: &[u8]) {
+        self.0.extend_from_slice(b);
+    }
+    pub fn into_bytes(self) -> Vec<u8> {
+        self.0
     }
     /// An optional real: a flag, then the value (0 if absent).
     pub fn opt(&mut self, x: Option<f64>) {
@@ -51,7 +52,11 @@ pub struct Reader<'a> {
     pos: usize,
 }
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
+    pub fn new(data: &'a [u8]) -> Reader<'a> {
+        Reader { data, pos: 0 }
+    }
+
     pub fn u(&mut self) -> Result<u64, String> {
         let bytes = self
             .data
@@ -77,18 +82,11 @@ impl Reader<'_> {
         }
         Ok(a)
     }
-    pub fn s(&mut self) -> Result<String, String> {
-        let n = usize::try_from(self.u()?).map_err(|_| "a text length overflows")?;
-        let padded = n
-            .checked_next_multiple_of(8)
-            .ok_or("a text length overflows")?;
-        let end = self
-            .pos
-            .checked_add(padded)
-            .ok_or("a text length overflows")?;
-        let bytes = self.data.get(self.pos..end).ok_or("payload ends early")?;
-        self.pos = end;
-        String::from_utf8(bytes[..n].to_vec()).map_err(|_| "a text is not UTF-8".to_string())
+    /// All that is left (a payload serialized elsewhere).
+    pub fn rest(&mut self) -> &[u8] {
+        let rest = &self.data[self.pos..];
+        self.pos = self.data.len();
+        rest
     }
     pub fn opt(&mut self) -> Result<Option<f64>, String> {
         let present = self.b()?;

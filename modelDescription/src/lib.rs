@@ -43,6 +43,9 @@ pub struct ModelInfo {
     /// The model reads input derivatives (fmi2SetRealInputDerivatives) and interpolates.
     #[serde(default)]
     pub can_interpolate_inputs: bool,
+    /// Params and Inputs derive serde's Serialize and Deserialize (the crate depends on serde).
+    #[serde(default)]
+    pub serde: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -491,7 +494,12 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         ),
     ] {
         let fields: Vec<&Var> = t.vars.iter().filter(|v| v.causality == causality).collect();
-        writeln!(w, "/// {doc}\n#[allow(non_snake_case)]\n#[derive(Clone, Debug, PartialEq)]\npub struct {st} {{").unwrap();
+        let serde = if t.model.serde && matches!(causality, "parameter" | "input") {
+            ", serde::Serialize, serde::Deserialize"
+        } else {
+            ""
+        };
+        writeln!(w, "/// {doc}\n#[allow(non_snake_case)]\n#[derive(Clone, Debug, PartialEq{serde})]\npub struct {st} {{").unwrap();
         for v in &fields {
             let unit = v
                 .unit

@@ -160,6 +160,30 @@ impl<S: System> PartialEq for Bdf<S> {
     }
 }
 
+/// Saved as its restart point (t, t_prev, h, y, y_prev), as a clone is.
+impl<S: System> serde::Serialize for Bdf<S>
+where
+    S::State: serde::Serialize,
+{
+    fn serialize<Z: serde::Serializer>(&self, z: Z) -> Result<Z::Ok, Z::Error> {
+        (self.t, self.t_prev, self.h, self.y, self.y_prev).serialize(z)
+    }
+}
+
+impl<'de, S: System> serde::Deserialize<'de> for Bdf<S>
+where
+    S::State: serde::Deserialize<'de>,
+{
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let (t, t_prev, h, y, y_prev) = <(f64, f64, f64, S::State, S::State)>::deserialize(d)?;
+        Ok(Bdf {
+            t_prev,
+            y_prev,
+            ..Bdf::at(t, y, h)
+        })
+    }
+}
+
 impl<S: System> std::fmt::Debug for Bdf<S> {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
         f.debug_struct("Bdf")

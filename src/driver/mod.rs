@@ -12,6 +12,7 @@ pub mod bdf;
 pub mod dopri5;
 pub mod simulation;
 
+use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 use std::ops::{Index, IndexMut};
 
@@ -95,7 +96,7 @@ pub trait System {
     }
 }
 
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
     pub steps: u64,
     pub rejected: u64,
@@ -105,7 +106,7 @@ pub struct Stats {
     pub events: u64,
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Tolerance<Y> {
     pub rtol: f64,
     /// Absolute tolerance of each component; 0: not under error control.
@@ -192,7 +193,11 @@ pub fn initial_step<S: System>(
 
 /// The integration methods, chosen by the `solver` parameter: the hand-written Dormand-Prince
 /// and diffsol's BDF (docs/integrators.md has the measurements behind both choices).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound(
+    serialize = "S::State: Serialize",
+    deserialize = "S::State: Deserialize<'de>"
+))]
 pub enum Method<S: System> {
     Dopri5(dopri5::Dopri5<S::State>),
     Bdf(bdf::Bdf<S>),
@@ -415,7 +420,7 @@ impl<S: System + Clone + 'static> Method<S> {
 /// the start of the next: kept so that each step evaluates them once. Recomputed when missing,
 /// so it never makes two drivers unequal; an FMU state saves it, because a recomputation from
 /// the dense output rounds differently.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MarginCache<M>(Option<(f64, M, M)>);
 
 impl<M> Default for MarginCache<M> {
@@ -479,14 +484,14 @@ fn hermite_minimum(m0: f64, d0: f64, m1: f64, d1: f64) -> Option<(f64, f64)> {
 const STEP_LIMIT_AGE: u64 = 8;
 
 /// An event found inside the method's current step, not yet handled.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PendingEvent {
     pub t: f64,
     pub index: usize,
 }
 
 /// Work cap per `advance`; past it the step ends with `TooMuchWork`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WorkCap {
     pub steps: u64,
     pub events: u64,
@@ -503,7 +508,11 @@ impl Default for WorkCap {
     }
 }
 
-#[derive(Debug, PartialEq)]
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound(
+    serialize = "S::State: Serialize, S::Margins: Serialize",
+    deserialize = "S::State: Deserialize<'de>, S::Margins: Deserialize<'de>"
+))]
 pub struct Driver<S: System> {
     pub method: Method<S>,
     pub tol: Tolerance<S::State>,

@@ -87,7 +87,7 @@ impl System for Mesh {
     }
 }
 
-#[derive(Debug, PartialEq)]
+#[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Simulation {
     pub mesh: Mesh,
     pub driver: Driver<Mesh>,

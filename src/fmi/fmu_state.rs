@@ -1,173 +1,22 @@
 //! The payload of SpurGearMesh's serialized FMU states. The envelope around it is
 //! fmi2_slave's (`fmi2_slave::fmu_state`; all integers little-endian): `"SGMSTATE"`, format
 //! version (u32), GUID length (u32) and bytes, payload length (u64), payload, FNV-1a 64
-//! checksum of the payload (u64); the payload starts with the FMI state (u64). What follows
-//! here lists every value that determines how the instance continues, field by field; the
-//! geometry is recomputed from the parameters, which gives the same bits. A state from another
-//! format version or another build of the model (GUID), or a truncated or corrupted one, is
-//! rejected with a reason.
+//! checksum of the payload (u64); the payload starts with the FMI state (u64). The rest is the
+//! instance's `Snapshot` as serde derives it, written with postcard; the configuration that the
+//! parameters fix (geometry, contact law, rig) is left out and built again from them, which
+//! gives the same bits. A state from another format version or another build of the model
+//! (GUID), or a truncated, corrupted or inconsistent one, is rejected with a reason.
 
 use super::instance::Snapshot;
-use crate::driver::bdf::Bdf;
-use crate::driver::dopri5::Dopri5;
 use crate::driver::simulation::Simulation;
-use crate::driver::{MarginCache, Method, PendingEvent, Stats, WorkCap};
+use crate::driver::Method;
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::Ramp;
-use crate::model::{Loads, NY};
-use crate::variables::{Causality, Inputs, Params, VarType, VARIABLES};
+use crate::variables::{Causality, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
-/// The version of the payload below (the envelope's format version).
-pub const FORMAT_VERSION: u32 = 5;
-
-/// Parameters or inputs, in the table's order.
-fn write_vars(w: &mut Writer, causality: Causality, p: &Params, i: &Inputs) {
-    for info in VARIABLES.iter().filter(|v| v.causality == causality) {
-        let v = info.var;
-        match info.ty {
-            VarType::Real => w.f(p.get_real(v).or(i.get_real(v)).expect("typed")),
-            VarType::Integer => {
-                w.u(p.get_integer(v).or(i.get_integer(v)).expect("typed") as i64 as u64)
-            }
-            VarType::Boolean => w.b(p.get_boolean(v).or(i.get_boolean(v)).expect("typed")),
-            VarType::String => w.s(p.get_string(v).expect("typed")),
-        }
-    }
-}
-
-fn read_vars(
-    r: &mut Reader,
-    causality: Causality,
-    p: &mut Params,
-    i: &mut Inputs,
-) -> Result<(), String> {
-    for info in VARIABLES.iter().filter(|v| v.causality == causality) {
-        let v = info.var;
-        match info.ty {
-            VarType::Real => {
-                let x = r.f()?;
-                let _ = p.set_real(v, x) || i.set_real(v, x);
-            }
-            VarType::Integer => {
-                let x = i32::try_from(r.u()? as i64)
-                    .map_err(|_| format!("{} out of range", info.name))?;
-                p.set_integer(v, x);
-            }
-            VarType::Boolean => {
-                let x = r.b()?;
-                p.set_boolean(v, x);
-            }
-            VarType::String => {
-                let x = r.s()?;
-                p.set_string(v, x);
-            }
-        }
-    }
-    Ok(())
-}
-
-fn write_ramp(w: &mut Writer, r: Ramp) {
-    w.fs(&r.t0);
-    w.fs(&r.rate);
-    w.fs(&r.curvature);
-}
-
-fn read_ramp(r: &mut Reader) -> Result<Ramp, String> {
-    let ramp = Ramp {
-        t0: r.fs()?,
-        rate: r.fs()?,
-        curvature: r.fs()?,
-    };
-    if ramp
-        .t0
-        .iter()
-        .chain(&ramp.rate)
-        .chain(&ramp.curvature)
-        .any(|x| !x.is_finite())
-    {
-        return Err(format!(
-            "input interpolation in the state is not finite ({ramp:?})"
-        ));
-    }
-    Ok(ramp)
-}
-
-fn write_sim(w: &mut Writer, s: &Simulation) {
-    let m = &s.mesh;
-    let l = &m.loads;
-    w.fs(&[
-        l.tau_a,
-        l.tau_b,
-        l.c_load,
-        l.chi,
-        l.mu,
-        l.v_reg,
-        l.alpha_housing,
-        l.a_housing_x,
-    ]);
-    w.fs(&m.sigma);
-    write_ramp(w, m.ramp.unwrap_or_default());
-    m.sign.iter().for_each(|&b| w.b(b));
-    w.f(m.e_gate);
-    w.u(m.n_events);
-    w.u(m.n_impacts);
-    w.f(m.e_start);
-    // The statistics (their presence follows from the parameters).
-    if let Some(st) = &m.stats {
-        w.fs(&st.accumulators());
-    }
-    let d = &s.driver;
-    w.f(d.tol.rtol);
-    w.fs(&d.tol.atol);
-    w.f(d.t);
-    w.b(d.needs_restart);
-    w.b(d.pending.is_some());
-    w.f(d.pending.map_or(0.0, |p| p.t));
-    w.u(d.pending.map_or(0, |p| p.index as u64));
-    let st = &d.stats;
-    for x in [
-        st.steps,
-        st.rejected,
-        st.rhs_evals,
-        st.jac_evals,
-        st.factorizations,
-        st.events,
-        d.cap.steps,
-        d.cap.events,
-    ] {
-        w.u(x);
-    }
-    w.f(d.t_stop);
-    w.fs(&d.y_start);
-    w.f(d.step_limit);
-    w.f(d.observed);
-    w.f(d.search_from);
-    // The event margins at the step's start: a recomputation would round differently.
-    let start = d.start.get();
-    w.b(start.is_some());
-    let (t, m, r) = start.unwrap_or((0.0, [0.0; N_EVENTS], [0.0; N_EVENTS]));
-    w.f(t);
-    w.fs(&m);
-    w.fs(&r);
-    match &d.method {
-        Method::Dopri5(m) => {
-            w.u(1);
-            w.fs(&[m.t, m.t_prev, m.h]);
-            w.fs(&m.y);
-            w.fs(&m.k1);
-            m.rcont.iter().for_each(|r| w.fs(r));
-            w.f(m.facold);
-        }
-        // diffsol's BDF is saved as a restart point (the driver then has needs_restart set).
-        Method::Bdf(m) => {
-            w.u(2);
-            w.fs(&[m.t, m.t_prev, m.h]);
-            w.fs(&m.y);
-            w.fs(&m.y_prev);
-        }
-    }
-}
+/// The version of the payload below (the envelope's format version): 6 since the payload is
+/// postcard; 1-5 were fields written one by one.
+pub const FORMAT_VERSION: u32 = 6;
 
 /// The checksum only proves the bytes arrived intact; a state edited with a recomputed checksum
 /// must not bring NaN, infinity or an invalid tolerance into the instance.
@@ -229,117 +78,35 @@ fn check_values(s: &Simulation) -> Result<(), String> {
     Ok(())
 }
 
-fn read_sim(r: &mut Reader, p: &Params, i: &Inputs, start: f64) -> Result<Simulation, String> {
-    let mut s = Simulation::new(p, i, start, p.rel_tol)
+/// The configuration a state leaves out, built again from its parameters, and the checks a
+/// checksum cannot make.
+fn rebuild(sim: &mut Simulation, s: &Snapshot) -> Result<(), String> {
+    let fresh = Simulation::new(&s.params, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
-    let l: [f64; 8] = r.fs()?;
-    let m = &mut s.mesh;
-    m.loads = Loads {
-        tau_a: l[0],
-        tau_b: l[1],
-        c_load: l[2],
-        chi: l[3],
-        mu: l[4],
-        v_reg: l[5],
-        alpha_housing: l[6],
-        a_housing_x: l[7],
-    };
-    m.set_sigma(r.fs()?);
-    m.ramp = Some(read_ramp(r)?).filter(Ramp::is_active);
-    for b in m.sign.iter_mut() {
-        *b = r.b()?;
+    if sim.mesh.stats.is_some() != fresh.mesh.stats.is_some() {
+        return Err("the statistics in the state do not match the parameter statistics".into());
     }
-    m.e_gate = r.f()?;
-    m.n_events = r.u()?;
-    m.n_impacts = r.u()?;
-    m.e_start = r.f()?;
-    if let Some(st) = m.stats.as_mut() {
-        st.set_accumulators(r.fs()?);
+    sim.mesh.cfg = fresh.mesh.cfg;
+    let sigma = sim.mesh.sigma;
+    sim.mesh.set_sigma(sigma);
+    let d = &sim.driver;
+    if d.pending.is_some_and(|p| p.index >= N_EVENTS) {
+        return Err(format!("event index {:?} out of range", d.pending));
     }
-    let d = &mut s.driver;
-    d.tol.rtol = r.f()?;
-    d.tol.atol = r.fs::<NY>()?;
-    d.t = r.f()?;
-    d.needs_restart = r.b()?;
-    let (has_pending, pt, pi) = (r.b()?, r.f()?, r.u()? as usize);
-    if pi >= N_EVENTS {
-        return Err(format!("event index {pi} out of range"));
+    if matches!(d.method, Method::Bdf(_)) && !d.needs_restart {
+        return Err("a BDF state must be a restart point".into());
     }
-    d.pending = has_pending.then_some(PendingEvent { t: pt, index: pi });
-    let mut counts = [0u64; 8];
-    for c in counts.iter_mut() {
-        *c = r.u()?;
-    }
-    let [steps, rejected, rhs_evals, jac_evals, factorizations, events, cap_steps, cap_events] =
-        counts;
-    d.stats = Stats {
-        steps,
-        rejected,
-        rhs_evals,
-        jac_evals,
-        factorizations,
-        events,
-    };
-    d.cap = WorkCap {
-        steps: cap_steps,
-        events: cap_events,
-    };
-    d.t_stop = r.f()?;
-    d.y_start = r.fs::<NY>()?;
-    d.step_limit = r.f()?;
-    d.observed = r.f()?;
-    d.search_from = r.f()?;
-    let (has_start, t, m, rates) = (r.b()?, r.f()?, r.fs()?, r.fs()?);
-    d.start = MarginCache::new(has_start.then_some((t, m, rates)));
-    d.method = match r.u()? {
-        1 => {
-            let mut m = Dopri5::new();
-            [m.t, m.t_prev, m.h] = r.fs()?;
-            m.y = r.fs()?;
-            m.k1 = r.fs()?;
-            for row in m.rcont.iter_mut() {
-                *row = r.fs::<NY>()?;
-            }
-            m.facold = r.f()?;
-            Method::Dopri5(m)
-        }
-        2 => {
-            let [t, t_prev, h] = r.fs()?;
-            let mut m = Bdf::at(t, r.fs()?, h);
-            m.t_prev = t_prev;
-            m.y_prev = r.fs()?;
-            if !d.needs_restart {
-                return Err("a BDF state must be a restart point".into());
-            }
-            Method::Bdf(m)
-        }
-        tag => return Err(format!("unknown integration method tag {tag}")),
-    };
-    check_values(&s)?;
-    Ok(s)
+    check_values(sim)
 }
 
 pub fn write(w: &mut Writer, s: &Snapshot) {
-    write_vars(w, Causality::Parameter, &s.params, &s.inputs);
-    write_vars(w, Causality::Input, &s.params, &s.inputs);
-    w.f(s.start_time);
-    w.opt(s.stop_time);
-    w.opt(s.tolerance);
-    write_ramp(w, s.ramp);
-    w.b(s.sim.is_some());
-    if let Some(sim) = &s.sim {
-        write_sim(w, sim);
-    }
+    w.bytes(&postcard::to_allocvec(s).expect("a snapshot serializes"));
 }
 
 pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
-    let (mut params, mut inputs) = (Params::default(), Inputs::default());
-    read_vars(r, Causality::Parameter, &mut params, &mut inputs)?;
-    read_vars(r, Causality::Input, &mut params, &mut inputs)?;
-    let start_time = r.f()?;
-    let stop_time = r.opt()?;
-    let tolerance = r.opt()?;
-    let ramp = read_ramp(r)?;
+    let mut s: Snapshot =
+        postcard::from_bytes(r.rest()).map_err(|e| format!("the payload does not decode: {e}"))?;
+    let (start_time, stop_time, tolerance) = (s.start_time, s.stop_time, s.tolerance);
     if !start_time.is_finite() || stop_time.is_some_and(|t| !(t >= start_time && t.is_finite())) {
         return Err(format!(
             "invalid experiment times (start {start_time}, stop {stop_time:?})"
@@ -348,36 +115,42 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     if tolerance.is_some_and(|t| !(1e-14..=0.1).contains(&t)) {
         return Err(format!("invalid experiment tolerance {tolerance:?}"));
     }
-    crate::model::geometry::validate(&params)
+    crate::model::geometry::validate(&s.params)
         .map_err(|e| format!("parameters in the state: {e}"))?;
     for info in VARIABLES.iter().filter(|v| v.causality == Causality::Input) {
-        if let Some(bad) = inputs.get_real(info.var).filter(|x| !x.is_finite()) {
+        if let Some(bad) = s.inputs.get_real(info.var).filter(|x| !x.is_finite()) {
             return Err(format!(
                 "input {} in the state is not finite ({bad})",
                 info.name
             ));
         }
     }
-    let sim = if r.b()? {
-        Some(read_sim(r, &params, &inputs, start_time)?)
-    } else {
-        None
-    };
-    Ok(Snapshot {
-        params,
-        inputs,
-        start_time,
-        stop_time,
-        tolerance,
-        ramp,
-        sim,
-    })
+    let ramp = &s.ramp;
+    if ramp
+        .t0
+        .iter()
+        .chain(&ramp.rate)
+        .chain(&ramp.curvature)
+        .any(|x| !x.is_finite())
+    {
+        return Err(format!(
+            "input interpolation in the state is not finite ({ramp:?})"
+        ));
+    }
+    if let Some(mut sim) = s.sim.take() {
+        rebuild(&mut sim, &s)?;
+        s.sim = Some(sim);
+    }
+    Ok(s)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::fmi::instance::{FmiState, SpurGearMesh};
+    use crate::model::mesh::Ramp;
+    use crate::model::Loads;
+    use crate::variables::{Inputs, Params};
     use fmi2_slave::instance::Saved;
 
     /// A state in the envelope, as fmi2SerializeFMUstate writes it.
@@ -465,5 +238,38 @@ mod tests {
         let mut longer = bytes.clone();
         longer.push(0);
         assert!(decode(&longer).is_err());
+    }
+
+    /// A state written by an older build (format version 5: fields written one by one) is
+    /// refused by its version before anything of it is read, with both versions named.
+    #[test]
+    fn a_state_of_an_older_format_is_refused_by_its_version() {
+        let mut bytes = encode(FmiState::StepComplete, &running(1));
+        bytes[8..12].copy_from_slice(&5u32.to_le_bytes());
+        let e = decode(&bytes).unwrap_err();
+        assert!(
+            e.contains("state format version 5") && e.contains("reads version 6"),
+            "{e}"
+        );
+    }
+
+    /// The payload is the snapshot as serde writes it: a state whose checksum is right but
+    /// whose payload is not a snapshot (or not a consistent one) is refused with a reason.
+    #[test]
+    fn a_payload_that_is_no_snapshot_is_refused() {
+        let s = running(1);
+        let mut w = Writer::default();
+        w.bytes(&postcard::to_allocvec(&s).unwrap()[..40]);
+        let bytes = w.into_bytes();
+        let mut r = Reader::new(&bytes);
+        assert!(read(&mut r).unwrap_err().contains("does not decode"));
+        // A consistent payload with a tolerance that is not the mesh's.
+        let mut bad = s.clone();
+        bad.sim.as_mut().unwrap().driver.tol.atol[4] = 1.0;
+        let mut w = Writer::default();
+        write(&mut w, &bad);
+        let bytes = w.into_bytes();
+        let e = read(&mut Reader::new(&bytes)).unwrap_err();
+        assert!(e.contains("invalid integrator settings"), "{e}");
     }
 }

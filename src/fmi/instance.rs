@@ -23,7 +23,7 @@ pub use fmi2_slave::instance::{allowed, error, CallResult, Failure, FmiState};
 pub const LOG_SOLVER: &str = "logSolver";
 
 /// What an FMU state holds: everything that determines how the instance continues.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Snapshot {
     pub params: Params,
     pub inputs: Inputs,

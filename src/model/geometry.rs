@@ -5,7 +5,7 @@ use super::ModelError;
 use crate::variables::{Causality, Params, VarType, VARIABLES};
 use std::f64::consts::PI;
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Geometry {
     pub z_a: f64,
     pub z_b: f64,

@@ -23,6 +23,7 @@ use super::statistics::Statistics;
 use super::tooth_structure::structure_law;
 use super::ModelError;
 use crate::variables::{Inputs, Params};
+use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 pub const NY: usize = 9;
@@ -61,7 +62,7 @@ pub const SEGMENT_LIMIT: &str =
     "the contact segment length |ab|, beyond which the teeth would pass through each other";
 
 /// The tunable parameters and the inputs: what a master may change between steps.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Loads {
     pub tau_a: f64,
     pub tau_b: f64,
@@ -93,7 +94,7 @@ impl Loads {
 /// Inputs interpolated over communication steps (fmi2SetRealInputDerivatives): input k is
 /// u_k + r_k (t - t0_k) + c_k (t - t0_k)^2 / 2 from the communication point t0_k at which
 /// u_k holds, for tau_A, tau_B, alpha_housing and a_housing_x in that order.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Ramp {
     pub t0: [f64; 4],
     pub rate: [f64; 4],
@@ -165,10 +166,11 @@ impl MeshLoad {
     }
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub struct Mesh {
+/// What the parameters fix: the geometry, the contact law, the rig, the derived constants.
+/// An FMU state leaves it out; it is built again from the parameters, to the same bits.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshConfig {
     pub geo: Geometry,
-    pub loads: Loads,
     pub law: ContactModel,
     pub slider: Option<Slider>,
     width: f64,
@@ -184,6 +186,18 @@ pub struct Mesh {
     inv_j_b: f64,
     inv_r_bb: f64,
     present: [bool; SLOTS],
+    /// Shape deviations (none: pairs on a flank share delta, and the flank's Pen and Rel
+    /// events serve them all).
+    pub dev: Option<Arc<Deviations>>,
+}
+
+/// The mesh: its configuration (`cfg`, read through Deref as `mesh.geo`, `self.law`...) and
+/// the state of its contact objects, modes and accounts, which an FMU state saves.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Mesh {
+    #[serde(skip)]
+    pub cfg: MeshConfig,
+    pub loads: Loads,
     /// s_A = sigma + dir rAb theta_A for each slot.
     pub sigma: [f64; SLOTS],
     /// Recorded sign of every event function (true: positive side). Gate signs are the gating
@@ -200,11 +214,28 @@ pub struct Mesh {
     pub stats: Option<Statistics>,
     /// Interpolated inputs, if the master gave input derivatives.
     pub ramp: Option<Ramp>,
-    /// Shape deviations (none: pairs on a flank share delta, and the flank's Pen and Rel
-    /// events serve them all).
-    pub dev: Option<Arc<Deviations>>,
-    /// The pitch deviation of the teeth each slot holds (changes when the slot jumps).
+    /// The pitch deviation of the teeth each slot holds (changes when the slot jumps; derived
+    /// from sigma, see `set_sigma`).
+    #[serde(skip)]
     pitch_e: [f64; SLOTS],
+}
+
+impl std::ops::Deref for Mesh {
+    type Target = MeshConfig;
+    #[inline(always)]
+    fn deref(&self) -> &MeshConfig {
+        &self.cfg
+    }
+}
+
+impl Default for ContactModel {
+    /// A placeholder until the configuration is built from the parameters.
+    fn default() -> Self {
+        ContactModel::Rigid {
+            restitution: 0.0,
+            two_sided: false,
+        }
+    }
 }
 
 /// What the mesh shows at a state: the wheels, each contact object's force and contact point,
@@ -310,21 +341,24 @@ impl Mesh {
             + geo.r_bb * geo.r_bb / p.J_B
             + slider.map_or(0.0, |s| sin_a * sin_a / s.m);
         let mut mesh = Mesh {
-            width: p.width,
-            j_a: p.J_A,
-            j_b: p.J_B,
-            backlash: p.backlash,
-            sin_a,
-            cos_a,
-            inv_m_eff,
-            inv_j_a: 1.0 / p.J_A,
-            inv_j_b: 1.0 / p.J_B,
-            inv_r_bb: 1.0 / geo.r_bb,
+            cfg: MeshConfig {
+                width: p.width,
+                j_a: p.J_A,
+                j_b: p.J_B,
+                backlash: p.backlash,
+                sin_a,
+                cos_a,
+                inv_m_eff,
+                inv_j_a: 1.0 / p.J_A,
+                inv_j_b: 1.0 / p.J_B,
+                inv_r_bb: 1.0 / geo.r_bb,
+                law,
+                slider,
+                geo,
+                present,
+                dev,
+            },
             loads: Loads::new(p, inputs),
-            law,
-            slider,
-            geo,
-            present,
             sigma,
             sign: [true; N_EVENTS],
             e_gate: 0.0,
@@ -332,7 +366,6 @@ impl Mesh {
             n_impacts: 0,
             e_start: 0.0,
             stats: p.statistics.then(|| Statistics::new(p.stats_start)),
-            dev,
             pitch_e: [0.0; SLOTS],
             ramp: None,
         };

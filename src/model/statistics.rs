@@ -30,7 +30,7 @@ const WEIGHTS: [f64; 5] = [
     0.118_463_442_528_094_5,
 ];
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Statistics {
     /// stats_start [s].
     pub start: f64,
@@ -123,33 +123,6 @@ impl Statistics {
             self.f_max = self.f_max.max(peak(&ts, &values, &force)?);
         }
         Ok(())
-    }
-
-    /// The running sums and extremes in one fixed order (an FMU state saves them so).
-    pub fn accumulators(&self) -> [f64; 8] {
-        [
-            self.duration,
-            self.int_dte,
-            self.int_dte2,
-            self.dte_min,
-            self.dte_max,
-            self.f_max,
-            self.t_separated,
-            self.t_backward,
-        ]
-    }
-
-    pub fn set_accumulators(&mut self, a: [f64; 8]) {
-        [
-            self.duration,
-            self.int_dte,
-            self.int_dte2,
-            self.dte_min,
-            self.dte_max,
-            self.f_max,
-            self.t_separated,
-            self.t_backward,
-        ] = a;
     }
 
     /// Marks the statistics as lost: the contact law left its range on the dense output between
