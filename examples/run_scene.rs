@@ -487,6 +487,8 @@ impl Naive {
             &Default::default(),
             &mut o,
         );
+        let e = self.mesh.energy(&self.y).map_err(|e| e.to_string())?;
+        (o.E_kin, o.E_el, o.energy_residual) = (e.e_kin, e.e_el, e.residual);
         Ok(o)
     }
 

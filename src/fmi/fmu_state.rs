@@ -87,6 +87,7 @@ fn rebuild(sim: &mut Simulation, s: &Snapshot) -> Result<(), String> {
         return Err("the statistics in the state do not match the parameter statistics".into());
     }
     sim.mesh.cfg = fresh.mesh.cfg;
+    sim.mesh.describe_events = fresh.mesh.describe_events;
     let sigma = sim.mesh.sigma;
     sim.mesh.set_sigma(sigma);
     let d = &sim.driver;

@@ -43,6 +43,8 @@ pub struct SpurGearMesh {
     /// place: they are read after every communication step.
     outputs: Outputs,
     fresh: bool,
+    /// The energy outputs are valid too (computed on demand after `fresh`).
+    energy_fresh: bool,
 }
 
 impl Snapshot {
@@ -286,6 +288,7 @@ impl Slave for SpurGearMesh {
         }
         let debug_events = log.enabled(LOG_EVENTS);
         let sim = self.snap.sim.as_mut().expect("initialized in StepComplete");
+        sim.mesh.describe_events = debug_events;
         // A step inside the integrator's last internal step only moves the time: no copy is
         // needed to undo it.
         let before = sim.needs_work(t_end).then(|| sim.clone());
@@ -363,6 +366,7 @@ impl From<Snapshot> for SpurGearMesh {
             snap,
             outputs: Outputs::default(),
             fresh: false,
+            energy_fresh: false,
         }
     }
 }
@@ -406,6 +410,7 @@ impl SpurGearMesh {
             self.build()?;
             let sim = self.snap.sim.as_ref().expect("just built");
             outputs::write(sim, &mut self.outputs).map_err(|e| error(e.to_string()))?;
+            self.energy_fresh = false;
             if let Some((name, x)) = self.outputs.first_non_finite() {
                 return Err(error(format!(
                     "output {name} = {x} is not finite at t = {}: check the parameters and start values",
@@ -413,6 +418,31 @@ impl SpurGearMesh {
                 )));
             }
             self.fresh = true;
+        }
+        Ok(&self.outputs)
+    }
+
+    /// The outputs with the energy account, computed on the first read of one of its outputs
+    /// after each change (`outputs::is_energy`); non-finite ones are an error naming them.
+    fn energy_outputs(&mut self) -> Result<&Outputs, Failure> {
+        self.outputs()?;
+        if !self.energy_fresh {
+            let sim = self.snap.sim.as_ref().expect("built by outputs()");
+            outputs::write_energy(sim, &mut self.outputs).map_err(|e| error(e.to_string()))?;
+            let o = &self.outputs;
+            for (name, x) in [
+                ("E_kin", o.E_kin),
+                ("E_el", o.E_el),
+                ("energy_residual", o.energy_residual),
+            ] {
+                if !x.is_finite() {
+                    return Err(error(format!(
+                        "output {name} = {x} is not finite at t = {}: check the parameters and start values",
+                        self.time()
+                    )));
+                }
+            }
+            self.energy_fresh = true;
         }
         Ok(&self.outputs)
     }
@@ -428,6 +458,7 @@ impl SpurGearMesh {
         let got = match v.info().causality {
             Causality::Parameter => param(&self.snap.params),
             Causality::Input => input(&self.snap.inputs),
+            Causality::Output if outputs::is_energy(v) => output(self.energy_outputs()?),
             Causality::Output => output(self.outputs()?),
             Causality::CalculatedParameter => calc(&outputs::calculated(&self.build()?.mesh)),
         };
