@@ -61,6 +61,17 @@ pub enum EventFn {
     ReliefB(usize),
 }
 
+/// Every event function by index.
+const EVENTS: [EventFn; N_EVENTS] = {
+    let mut t = [EventFn::Top(0); N_EVENTS];
+    let mut i = 0;
+    while i < N_EVENTS {
+        t[i] = EventFn::decode(i);
+        i += 1;
+    }
+    t
+};
+
 /// The event functions without shape deviations; the per-pair ones (four per slot) follow.
 pub const BASE_EVENTS: usize = 3 * SLOTS + 4;
 pub const N_EVENTS: usize = BASE_EVENTS + 4 * SLOTS;
@@ -80,14 +91,21 @@ impl EventFn {
         }
     }
 
+    /// The event function of index i, from a table built at compile time (the margin loops
+    /// run through every event at every step).
+    #[inline(always)]
     pub fn from_index(i: usize) -> EventFn {
-        let flank = |j: usize| {
+        EVENTS[i]
+    }
+
+    const fn decode(i: usize) -> EventFn {
+        const fn flank(j: usize) -> Flank {
             if j == 0 {
                 Flank::Forward
             } else {
                 Flank::Backward
             }
-        };
+        }
         match i {
             i if i < 3 * SLOTS => match i % 3 {
                 0 => EventFn::Top(i / 3),

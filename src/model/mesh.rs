@@ -963,7 +963,7 @@ impl Mesh {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn event_active(&self, e: EventFn) -> bool {
         if self.rigid() {
             return self.rigid_event_active(e);
