@@ -3,8 +3,8 @@
 //! `Slave::STATE_FORMAT_VERSION`), GUID length (u32) and bytes, payload length (u64), payload,
 //! FNV-1a 64 checksum of the payload (u64). The payload starts with the FMI state (u64, the
 //! bits of `FmiState`), followed by what the model's `encode` writes with `Writer`: 64-bit
-//! words only. A state from another format version or another build of the model (GUID), or a
-//! truncated or corrupted one, is rejected with a reason.
+//! words, or bytes a serializer produced. A state from another format version or another build
+//! of the model (GUID), or a truncated or corrupted one, is rejected with a reason.
 
 use crate::instance::{FmiState, Saved};
 use crate::Slave;
@@ -15,7 +15,7 @@ fn fnv64(data: &[u8]) -> u64 {
     })
 }
 
-/// Writes a payload: every value as a little-endian 64-bit word.
+/// Writes a payload: values as little-endian 64-bit words, or bytes as they are.
 #[derive(Default)]
 pub struct Writer(Vec<u8>);
 
