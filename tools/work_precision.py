@@ -609,6 +609,10 @@ def main(argv=None):
     patch_brentq()
     counting = Counting()
     G.solve_ivp = counting
+    # The per-pair mesh of the reference (contact model 3, shape deviations) integrates through
+    # its own module's solve_ivp: count those evaluations too.
+    from reference_model import deviations_ref
+    deviations_ref.solve_ivp = counting
 
     names = args.scenes or sorted(f[:-5] for f in os.listdir(G.SCENES_DIR) if f.endswith(".toml"))
     refs = {n: Reference(n) for n in names}
@@ -802,6 +806,7 @@ def summary(refs, all_results, tl):
             continue
         att = a["n_steps"] + a["n_rejected_steps"]
         per_rhs = a["cpu_median_s"] / a["n_rhs_evaluations"]
+        b = b if b and b["n_rhs_evaluations"] > 0 else None
         sp = "–" if not b else f"{b['cpu_median_s'] / b['n_rhs_evaluations'] * 1e6:.1f}"
         q = "–" if not b else f"{b['cpu_median_s'] / b['n_rhs_evaluations'] / per_rhs:.0f}×"
         qe = "–" if not b else f"{b['n_rhs_evaluations'] / a['n_rhs_evaluations']:.2f}"
