@@ -1210,13 +1210,7 @@ fn every_error_path_logs_in_its_category() {
             guid.as_ptr(),
             "instanceName",
         ),
-        (
-            c"x".as_ptr(),
-            TYPE_MODEL_EXCHANGE,
-            guid.as_ptr(),
-            "Co-Simulation",
-        ),
-        (c"x".as_ptr(), 5, guid.as_ptr(), "fmuType"),
+        (c"x".as_ptr(), 5, guid.as_ptr(), "fmuType = 5"),
         (
             c"x".as_ptr(),
             TYPE_CO_SIMULATION,

@@ -81,6 +81,7 @@ fn xml_and_value_references_agree() {
             Causality::CalculatedParameter => "calculatedParameter",
             Causality::Input => "input",
             Causality::Output => "output",
+            Causality::Local => "local",
         };
         assert_eq!(causality, x.causality, "{}", x.name);
         let variability = match info.variability {

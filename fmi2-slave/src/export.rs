@@ -36,11 +36,69 @@ macro_rules! export_fmi2 {
         }
     )*};
 
-    (@model_exchange $slave:ty: $($name:ident($($arg:ident: $t:ty),*);)*) => {$(
+    // Model Exchange: each function calls its body in `fmi2_slave::model_exchange`, which
+    // answers fmi2Error for a Co-Simulation-only model (no instance can be in its states).
+    (@model_exchange $slave:ty) => {
         #[no_mangle]
-        pub unsafe extern "C" fn $name(c: $crate::Component $(, $arg: $t)*) -> $crate::Status {
-            $(let _ = $arg;)*
-            $crate::ffi::model_exchange::<$slave>(c, stringify!($name))
+        pub unsafe extern "C" fn fmi2EnterEventMode(c: $crate::Component) -> $crate::Status {
+            $crate::model_exchange::enter_event_mode::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2NewDiscreteStates(
+            c: $crate::Component,
+            event_info: *mut $crate::EventInfo,
+        ) -> $crate::Status {
+            $crate::model_exchange::new_discrete_states::<$slave>(c, event_info)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(c: $crate::Component) -> $crate::Status {
+            $crate::model_exchange::enter_continuous_time_mode::<$slave>(c)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+            c: $crate::Component,
+            no_set_prior: $crate::Boolean,
+            enter_event_mode: *mut $crate::Boolean,
+            terminate: *mut $crate::Boolean,
+        ) -> $crate::Status {
+            $crate::model_exchange::completed_integrator_step::<$slave>(
+                c,
+                no_set_prior,
+                enter_event_mode,
+                terminate,
+            )
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetTime(c: $crate::Component, time: f64) -> $crate::Status {
+            $crate::model_exchange::set_time::<$slave>(c, time)
+        }
+
+        #[no_mangle]
+        pub unsafe extern "C" fn fmi2SetContinuousStates(
+            c: $crate::Component,
+            x: *const f64,
+            nx: usize,
+        ) -> $crate::Status {
+            $crate::model_exchange::set_continuous_states::<$slave>(c, x, nx)
+        }
+
+        $crate::export_fmi2!(@me_arrays $slave:
+            fmi2GetDerivatives => get_derivatives;
+            fmi2GetEventIndicators => get_event_indicators;
+            fmi2GetContinuousStates => get_continuous_states;
+            fmi2GetNominalsOfContinuousStates => get_nominals_of_continuous_states;
+        );
+    };
+
+    // Model Exchange's getters: (component, array, size).
+    (@me_arrays $slave:ty: $($name:ident => $body:ident;)*) => {$(
+        #[no_mangle]
+        pub unsafe extern "C" fn $name(c: $crate::Component, x: *mut f64, n: usize) -> $crate::Status {
+            $crate::model_exchange::$body::<$slave>(c, x, n)
         }
     )*};
 
@@ -266,24 +324,7 @@ macro_rules! export_fmi2 {
             fmi2GetStringStatus(*mut *const ::std::os::raw::c_char) => get_string_status;
         );
 
-        // ---- Model Exchange: not supported ---------------------------------------------------
-
-        $crate::export_fmi2!(@model_exchange $slave:
-            fmi2EnterEventMode();
-            fmi2NewDiscreteStates(event_info: *mut $crate::EventInfo);
-            fmi2EnterContinuousTimeMode();
-            fmi2CompletedIntegratorStep(
-                no_set_prior: $crate::Boolean,
-                enter_event_mode: *mut $crate::Boolean,
-                terminate: *mut $crate::Boolean
-            );
-            fmi2SetTime(time: f64);
-            fmi2SetContinuousStates(x: *const f64, nx: usize);
-            fmi2GetDerivatives(derivatives: *mut f64, nx: usize);
-            fmi2GetEventIndicators(indicators: *mut f64, ni: usize);
-            fmi2GetContinuousStates(x: *mut f64, nx: usize);
-            fmi2GetNominalsOfContinuousStates(x_nominal: *mut f64, nx: usize);
-        );
+        $crate::export_fmi2!(@model_exchange $slave);
     };
 
 }

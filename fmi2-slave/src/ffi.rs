@@ -1,7 +1,7 @@
 //! The bodies of the fmi2* functions, generic over the model; `export_fmi2!` defines the
 //! exported functions that call them. Each one finds its instance, states which FMI states it
 //! may be called in, and hands a closure to `Instance::call` (state check, panic guard, error
-//! log). The Model Exchange functions answer fmi2Error.
+//! log). The Model Exchange functions are in `model_exchange.rs`.
 //!
 //! # Safety
 //! Every function takes the arguments of its fmi2 counterpart as the master passes them: the
@@ -17,14 +17,17 @@ use crate::{fmu_state, Slave};
 use crate::{
     Boolean, CallbackFunctions, Component, FmuState, Status, StatusKind, Type, ValueReference,
 };
-use crate::{DO_STEP_STATUS, LAST_SUCCESSFUL_TIME, PENDING_STATUS, TERMINATED, TYPE_CO_SIMULATION};
+use crate::{
+    DO_STEP_STATUS, LAST_SUCCESSFUL_TIME, PENDING_STATUS, TERMINATED, TYPE_CO_SIMULATION,
+    TYPE_MODEL_EXCHANGE,
+};
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_int};
 
 /// More values than any master can mean; guards against garbage counts.
 const MAX_VALUES: usize = 1 << 20;
 
-unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
+pub(crate) unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
     if c.is_null() {
         return None;
     }
@@ -32,7 +35,7 @@ unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
     (i.magic == MAGIC).then_some(i)
 }
 
-fn with<S: Slave>(
+pub(crate) fn with<S: Slave>(
     c: Component,
     func: &str,
     states: u32,
@@ -45,7 +48,7 @@ fn with<S: Slave>(
 }
 
 /// A C array argument: null is allowed only for n = 0.
-unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Failure> {
+pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Failure> {
     if n == 0 {
         Ok(&[])
     } else if p.is_null() || n > MAX_VALUES {
@@ -57,7 +60,11 @@ unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Fai
     }
 }
 
-unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> Result<&'a mut [T], Failure> {
+pub(crate) unsafe fn slice_mut<'a, T>(
+    p: *mut T,
+    n: usize,
+    what: &str,
+) -> Result<&'a mut [T], Failure> {
     if n == 0 {
         Ok(&mut [])
     } else if p.is_null() || n > MAX_VALUES {
@@ -105,18 +112,27 @@ pub unsafe fn instantiate<S: Slave>(
         if instance_name.is_null() || name.is_empty() {
             return fail("instanceName must be a non-empty string".into());
         }
-        if fmu_type != TYPE_CO_SIMULATION {
-            return fail(format!(
-                "fmuType = {fmu_type}: {} is a Co-Simulation FMU only (fmi2CoSimulation = 1)",
-                S::MODEL_NAME
-            ));
-        }
+        let model_exchange = match fmu_type {
+            TYPE_CO_SIMULATION => false,
+            TYPE_MODEL_EXCHANGE if S::MODEL_EXCHANGE => true,
+            _ if S::MODEL_EXCHANGE => {
+                return fail(format!(
+                    "fmuType = {fmu_type}: must be fmi2ModelExchange = 0 or fmi2CoSimulation = 1"
+                ))
+            }
+            _ => {
+                return fail(format!(
+                    "fmuType = {fmu_type}: {} is a Co-Simulation FMU only (fmi2CoSimulation = 1)",
+                    S::MODEL_NAME
+                ))
+            }
+        };
         let own = S::guid();
         match text(guid) {
             Some(g) if g == own => {}
             other => return fail(format!("GUID {other:?} does not match this binary's {own}")),
         }
-        Some(Box::into_raw(Box::new(Instance::<S>::new(log))) as Component)
+        Some(Box::into_raw(Box::new(Instance::<S>::new(log, model_exchange))) as Component)
     });
     built.ok().flatten().unwrap_or(std::ptr::null_mut())
 }
@@ -192,8 +208,13 @@ pub unsafe fn enter_initialization_mode<S: Slave>(c: Component) -> Status {
 
 pub unsafe fn exit_initialization_mode<S: Slave>(c: Component) -> Status {
     with::<S>(c, "fmi2ExitInitializationMode", allowed::INIT, |i| {
-        i.slave.exit_initialization()?;
-        i.state = FmiState::StepComplete;
+        if i.model_exchange {
+            i.slave.me_exit_initialization()?;
+            i.state = FmiState::EventMode;
+        } else {
+            i.slave.exit_initialization()?;
+            i.state = FmiState::StepComplete;
+        }
         let warnings = i.slave.init_warnings();
         for w in &warnings {
             i.log
@@ -208,7 +229,8 @@ pub unsafe fn exit_initialization_mode<S: Slave>(c: Component) -> Status {
 }
 
 pub unsafe fn terminate<S: Slave>(c: Component) -> Status {
-    with::<S>(c, "fmi2Terminate", allowed::DONE | allowed::FAIL, |i| {
+    let states = allowed::DONE | allowed::FAIL | allowed::EVENT | allowed::CONT;
+    with::<S>(c, "fmi2Terminate", states, |i| {
         i.state = FmiState::Terminated;
         Ok(Status::Ok)
     })
@@ -253,7 +275,7 @@ unsafe fn set<S: Slave, T>(
 ) -> Status {
     with::<S>(c, func, allowed::SET, |i| {
         let (vrs, vals) = (slice(vr, n, "vr")?, slice(value, n, "value")?);
-        let running = i.state == FmiState::StepComplete;
+        let running = allowed::RUNNING & i.state as u32 != 0;
         set_all(&mut i.slave, vrs, vals, running)?;
         Ok(Status::Ok)
     })
@@ -362,7 +384,7 @@ pub unsafe fn set_string<S: Slave>(
                 }
             }
         }
-        let running = i.state == FmiState::StepComplete;
+        let running = allowed::RUNNING & i.state as u32 != 0;
         i.slave.set_string(vrs, &texts, running)?;
         Ok(Status::Ok)
     })
@@ -413,7 +435,7 @@ pub unsafe fn get_fmu_state<S: Slave>(c: Component, state: *mut FmuState) -> Sta
 pub unsafe fn set_fmu_state<S: Slave>(c: Component, state: FmuState) -> Status {
     with::<S>(c, "fmi2SetFMUstate", allowed::ANY, |i| {
         let saved = owned_state(i, state)?;
-        i.restore(saved);
+        i.restore(saved)?;
         Ok(Status::Ok)
     })
 }
@@ -523,6 +545,12 @@ pub unsafe fn set_real_input_derivatives<S: Slave>(
     value: *const f64,
 ) -> Status {
     with::<S>(c, "fmi2SetRealInputDerivatives", allowed::SET, |i| {
+        if i.model_exchange {
+            return Err(error(
+                "a Co-Simulation function, but the instance was instantiated for Model Exchange"
+                    .into(),
+            ));
+        }
         let vrs = slice(vr, n, "vr")?;
         let orders = slice(order, n, "order")?;
         let values = slice(value, n, "value")?;
@@ -547,14 +575,6 @@ pub unsafe fn get_directional_derivative<S: Slave>(c: Component) -> Status {
         allowed::GET,
         "providesDirectionalDerivative is false",
     )
-}
-
-pub unsafe fn model_exchange<S: Slave>(c: Component, func: &str) -> Status {
-    let why = format!(
-        "{} is a Co-Simulation FMU: Model Exchange functions are not available",
-        S::MODEL_NAME
-    );
-    not_supported::<S>(c, func, allowed::ANY, &why)
 }
 
 /// fmi2GetStatus and friends: only fmi2LastSuccessfulTime and fmi2Terminated exist here;

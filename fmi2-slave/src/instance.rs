@@ -1,4 +1,5 @@
-//! One FMU instance: the FMI 2.0 Co-Simulation state machine around a model (`Slave`). Every
+//! One FMU instance: the FMI 2.0 state machine around a model (`Slave`), for Co-Simulation or
+//! Model Exchange. Every
 //! exported function goes through `Instance::call`, which checks the state in one place,
 //! catches panics, and logs a failure and turns it into a state change.
 
@@ -13,6 +14,9 @@ pub enum FmiState {
     StepFailed = 8,
     Terminated = 16,
     Error = 32,
+    /// Model Exchange only.
+    EventMode = 64,
+    ContinuousTimeMode = 128,
 }
 
 impl FmiState {
@@ -25,13 +29,16 @@ impl FmiState {
             StepFailed,
             Terminated,
             Error,
+            EventMode,
+            ContinuousTimeMode,
         ]
         .into_iter()
         .find(|s| *s as u64 == b)
     }
 }
 
-/// Sets of states in which a function may be called (FMI 2.0 standard, section 4.2.4).
+/// Sets of states in which a function may be called (FMI 2.0 standard, sections 3.2.3 and
+/// 4.2.4).
 pub mod allowed {
     use super::FmiState::*;
     pub const INST: u32 = Instantiated as u32;
@@ -40,10 +47,16 @@ pub mod allowed {
     pub const FAIL: u32 = StepFailed as u32;
     pub const TERM: u32 = Terminated as u32;
     pub const ERR: u32 = Error as u32;
-    pub const ANY: u32 = INST | INIT | DONE | FAIL | TERM | ERR;
-    pub const GET: u32 = INIT | DONE | FAIL | TERM | ERR;
-    pub const SET: u32 = INST | INIT | DONE;
+    pub const EVENT: u32 = EventMode as u32;
+    pub const CONT: u32 = ContinuousTimeMode as u32;
+    pub const ANY: u32 = INST | INIT | DONE | FAIL | TERM | ERR | EVENT | CONT;
+    pub const GET: u32 = INIT | DONE | FAIL | TERM | ERR | EVENT | CONT;
+    pub const SET: u32 = INST | INIT | DONE | EVENT | CONT;
+    /// After initialization: only tunable parameters and inputs may change.
+    pub const RUNNING: u32 = DONE | EVENT | CONT;
     pub const STATUS: u32 = DONE | FAIL | TERM | ERR;
+    /// Model Exchange's getters of states, derivatives, event indicators and nominals.
+    pub const ME_GET: u32 = INIT | EVENT | CONT | TERM | ERR;
 }
 
 /// A function's failure: the status to return and the message to log.
@@ -73,6 +86,8 @@ pub struct Instance<S: Slave> {
     pub(crate) magic: u64,
     pub log: Logger,
     pub state: FmiState,
+    /// Instantiated for Model Exchange (else Co-Simulation).
+    pub model_exchange: bool,
     pub slave: S,
     /// FMU states handed out by this instance (owned here, freed by fmi2FreeFMUstate or at free).
     pub(crate) fmu_states: HashSet<usize>,
@@ -84,11 +99,12 @@ pub struct Instance<S: Slave> {
 pub(crate) const MAGIC: u64 = 0x464d_4932_534c_4156; // "FMI2SLAV"
 
 impl<S: Slave> Instance<S> {
-    pub fn new(log: Logger) -> Instance<S> {
+    pub fn new(log: Logger, model_exchange: bool) -> Instance<S> {
         Instance {
             magic: MAGIC,
             log,
             state: FmiState::Instantiated,
+            model_exchange,
             slave: S::fresh(),
             fmu_states: HashSet::new(),
             strings: Vec::new(),
@@ -140,8 +156,30 @@ impl<S: Slave> Instance<S> {
         }
     }
 
-    pub fn restore(&mut self, s: &Saved<S>) {
+    pub fn restore(&mut self, s: &Saved<S>) -> Result<(), Failure> {
+        self.fits(s.state)?;
         self.state = s.state;
         self.slave = s.slave.clone();
+        Ok(())
+    }
+
+    /// An FMU state of the other interface (a Co-Simulation step state in a Model Exchange
+    /// instance, or the reverse) cannot be continued here.
+    pub fn fits(&self, state: FmiState) -> Result<(), Failure> {
+        use FmiState::*;
+        let (ours, other) = if self.model_exchange {
+            ("Model Exchange", matches!(state, StepComplete | StepFailed))
+        } else {
+            (
+                "Co-Simulation",
+                matches!(state, EventMode | ContinuousTimeMode),
+            )
+        };
+        if other {
+            return Err(error(format!(
+                "the FMU state was saved in {state:?}, which a {ours} instance does not have"
+            )));
+        }
+        Ok(())
     }
 }

@@ -5,12 +5,13 @@
 //!
 //! - the C types of the standard (this module);
 //! - `logging`: the master's logger, filtered by the model's log categories;
-//! - `instance`: [`Instance`], the FMI 2.0 Co-Simulation state machine in one place (state
+//! - `instance`: [`Instance`], the FMI 2.0 state machine (Co-Simulation and Model Exchange) in one place (state
 //!   checks, panic guard, a failure logged and turned into a state change) and the FMU states
 //!   an instance hands out;
 //! - `fmu_state`: the serialized FMU state: an envelope (magic, format version, GUID, length,
 //!   checksum) around the model's payload, and the reader and writer of payloads;
 //! - `ffi`: the bodies of the 44 fmi2* functions, generic over the model;
+//! - `model_exchange`: the bodies of the Model Exchange functions;
 //! - `export_fmi2!`: the `#[no_mangle]` functions themselves, defined in the model's crate.
 
 // `!(x > y)` on purpose throughout: a NaN argument must fail the check.
@@ -20,13 +21,14 @@ pub mod ffi;
 pub mod fmu_state;
 pub mod instance;
 pub mod logging;
+pub mod model_exchange;
 mod slave;
 
 mod export;
 
 pub use instance::{error, CallResult, Failure, FmiState, Instance};
 pub use logging::Logger;
-pub use slave::{check_experiment_times, Slave};
+pub use slave::{check_experiment_times, EventUpdate, Slave};
 
 use std::os::raw::{c_char, c_int, c_uint, c_void};
 
@@ -38,10 +40,16 @@ pub type Boolean = c_int;
 /// fmi2Type and fmi2StatusKind: C enums, int-sized.
 pub type Type = c_int;
 pub type StatusKind = c_int;
-/// fmi2EventInfo: only Model Exchange uses it; opaque here.
+/// fmi2EventInfo: what fmi2NewDiscreteStates reports (Model Exchange).
 #[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct EventInfo {
-    _opaque: [u8; 0],
+    pub new_discrete_states_needed: Boolean,
+    pub terminate_simulation: Boolean,
+    pub nominals_of_continuous_states_changed: Boolean,
+    pub values_of_continuous_states_changed: Boolean,
+    pub next_event_time_defined: Boolean,
+    pub next_event_time: f64,
 }
 
 /// fmi2Status.

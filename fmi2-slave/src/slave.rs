@@ -137,6 +137,72 @@ pub trait Slave: Clone + 'static {
     fn encode(&self, w: &mut Writer);
     /// Reads what `encode` wrote (the layer checks that nothing is left over).
     fn decode(r: &mut Reader) -> Result<Self, String>;
+
+    // ---- Model Exchange ---------------------------------------------------------------------
+    // A model with `MODEL_EXCHANGE` may be instantiated as fmi2ModelExchange; the layer calls
+    // the methods below only in the states the standard allows, with arrays of the sizes given
+    // here (checked). The defaults serve a Co-Simulation-only model, for which the layer
+    // answers every Model Exchange function with fmi2Error before calling them.
+
+    const MODEL_EXCHANGE: bool = false;
+    const N_STATES: usize = 0;
+    const N_EVENT_INDICATORS: usize = 0;
+
+    /// fmi2ExitInitializationMode of a Model Exchange instance: afterwards the master
+    /// integrates, and the model is in event mode.
+    fn me_exit_initialization(&mut self) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    /// fmi2SetTime (finite, checked).
+    fn me_set_time(&mut self, _t: f64) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    /// fmi2SetContinuousStates (finite, checked).
+    fn me_set_states(&mut self, _x: &[f64]) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    fn me_states(&mut self, _x: &mut [f64]) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    fn me_derivatives(&mut self, _dx: &mut [f64]) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    fn me_event_indicators(&mut self, _z: &mut [f64]) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    fn me_nominals(&mut self, _n: &mut [f64]) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    /// fmi2EnterEventMode: the master stopped at an event (or an input changed).
+    fn me_enter_event_mode(&mut self) -> Result<(), Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    /// fmi2NewDiscreteStates: handles what happened and says what changed.
+    fn me_new_discrete_states(&mut self, _log: &Logger) -> Result<EventUpdate, Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+    /// fmi2CompletedIntegratorStep: the master accepted its step; true asks for event mode.
+    fn me_completed_integrator_step(&mut self) -> Result<bool, Failure> {
+        Err(no_model_exchange::<Self>())
+    }
+}
+
+/// What fmi2NewDiscreteStates reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EventUpdate {
+    /// The continuous states jumped (an impact changed speeds).
+    pub states_changed: bool,
+    /// The nominals changed (the master should re-read them).
+    pub nominals_changed: bool,
+    /// A time event ahead, if any.
+    pub next_event_time: Option<f64>,
+}
+
+pub(crate) fn no_model_exchange<S: Slave>() -> Failure {
+    error(format!(
+        "{} is a Co-Simulation FMU: Model Exchange functions are not available",
+        S::MODEL_NAME
+    ))
 }
 
 fn no_variables<S: Slave>(vr: ValueReference, ty: &str) -> Failure {

@@ -46,6 +46,16 @@ pub struct ModelInfo {
     /// Params and Inputs derive serde's Serialize and Deserialize (the crate depends on serde).
     #[serde(default)]
     pub serde: bool,
+    /// The FMU offers Model Exchange too: its continuous states are the variables that a
+    /// `derivative_of` names, in the table's order of the derivatives, and it has this many
+    /// event indicators.
+    #[serde(default)]
+    pub model_exchange: Option<ModelExchange>,
+}
+
+#[derive(Debug, Deserialize)]
+pub struct ModelExchange {
+    pub event_indicators: usize,
 }
 
 #[derive(Debug, Deserialize)]
@@ -82,10 +92,17 @@ pub struct Var {
     pub exclusive_max: bool,
     /// A parameter of one geometry front end only: its range is checked when that one is used.
     pub geometry: Option<i32>,
+    /// This variable is the time derivative of the named one, a continuous state (Model Exchange).
+    pub derivative_of: Option<String>,
     pub description: String,
 }
 
 impl Var {
+    /// The name as a Rust identifier: `der(x)` becomes `der_x`.
+    pub fn ident(&self) -> String {
+        ident(&self.name)
+    }
+
     /// The start value as FMI text ("1e-6", "true", "20").
     fn start_text(&self) -> Option<String> {
         self.start.as_ref().map(|v| match v {
@@ -144,6 +161,11 @@ impl Range {
     }
 }
 "#;
+
+/// A variable name as a Rust identifier: `der(x)` becomes `der_x`.
+pub fn ident(name: &str) -> String {
+    name.replace('(', "_").replace(')', "")
+}
 
 /// Shortest text that reads back to the same f64.
 fn format_real(f: f64) -> String {
@@ -205,7 +227,52 @@ fn check(t: &Table) {
             "variable {}: an exclusive bound needs the bound",
             v.name
         );
+        if let Some(of) = &v.derivative_of {
+            let state = t.vars.iter().find(|s| &s.name == of);
+            assert!(
+                state.is_some_and(|s| s.ty == "Real" && s.variability == "continuous"),
+                "variable {}: derivative_of {of} must name a continuous Real variable",
+                v.name
+            );
+            assert!(
+                v.causality == "local" && v.ty == "Real",
+                "variable {}: a derivative is a local Real",
+                v.name
+            );
+        }
     }
+    let derivatives = t.vars.iter().filter(|v| v.derivative_of.is_some()).count();
+    assert_eq!(
+        t.model.model_exchange.is_some(),
+        derivatives > 0,
+        "Model Exchange needs derivatives in the table, and derivatives need model_exchange"
+    );
+}
+
+/// Indices (1-based, the modelDescription's) of the variables that match.
+fn indices(t: &Table, pred: impl Fn(&Var) -> bool) -> Vec<usize> {
+    t.vars
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| pred(v))
+        .map(|(i, _)| i + 1)
+        .collect()
+}
+
+/// The continuous states with their derivatives, in the order of the state vector.
+pub fn states(t: &Table) -> Vec<(&Var, &Var)> {
+    t.vars
+        .iter()
+        .filter_map(|d| {
+            let of = d.derivative_of.as_ref()?;
+            Some((t.vars.iter().find(|s| &s.name == of)?, d))
+        })
+        .collect()
+}
+
+/// The index of the named variable (1-based).
+fn index_of_name(t: &Table, name: &str) -> usize {
+    t.vars.iter().position(|v| v.name == name).expect("checked") + 1
 }
 
 /// A stable GUID: a 128-bit FNV-1a hash of the table and the crate version, so that a changed
@@ -241,9 +308,31 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
                 "SpurGearMesh modelDescription generator".into(),
             ),
             ("variableNamingConvention", "flat".into()),
-            ("numberOfEventIndicators", "0".into()),
+            (
+                "numberOfEventIndicators",
+                t.model
+                    .model_exchange
+                    .as_ref()
+                    .map_or(0, |m| m.event_indicators)
+                    .to_string(),
+            ),
         ],
     )));
+    if t.model.model_exchange.is_some() {
+        put(Event::Empty(elem(
+            "ModelExchange",
+            &[
+                ("modelIdentifier", t.model.name.clone()),
+                ("needsExecutionTool", "false".into()),
+                ("completedIntegratorStepNotNeeded", "false".into()),
+                ("canBeInstantiatedOnlyOncePerProcess", "false".into()),
+                ("canNotUseMemoryManagementFunctions", "true".into()),
+                ("canGetAndSetFMUstate", "true".into()),
+                ("canSerializeFMUstate", "true".into()),
+                ("providesDirectionalDerivative", "false".into()),
+            ],
+        )));
+    }
     put(Event::Empty(elem(
         "CoSimulation",
         &[
@@ -318,13 +407,18 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         ];
         match v.causality.as_str() {
             "parameter" => attrs.push(("initial", "exact".into())),
-            "calculatedParameter" | "output" => attrs.push(("initial", "calculated".into())),
+            "calculatedParameter" | "output" | "local" => {
+                attrs.push(("initial", "calculated".into()))
+            }
             _ => {}
         }
         put(Event::Start(elem("ScalarVariable", &attrs)));
         let mut tattrs = Vec::new();
         if let Some(s) = v.start_text() {
             tattrs.push(("start", s));
+        }
+        if let Some(of) = &v.derivative_of {
+            tattrs.push(("derivative", index_of_name(t, of).to_string()));
         }
         if let Some(u) = &v.unit {
             tattrs.push(("unit", u.clone()));
@@ -347,18 +441,10 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
     }
     put(Event::End(BytesEnd::new("ModelVariables")));
 
-    let index_of = |pred: &dyn Fn(&Var) -> bool| -> Vec<usize> {
-        t.vars
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| pred(v))
-            .map(|(i, _)| i + 1)
-            .collect()
-    };
     put(Event::Start(BytesStart::new("ModelStructure")));
     put(Event::Start(BytesStart::new("Outputs")));
     let none = t.model.output_dependencies.as_deref() == Some("none");
-    for i in index_of(&|v| v.causality == "output") {
+    for i in indices(t, |v| v.causality == "output") {
         let mut attrs = vec![("index", i.to_string())];
         if none {
             attrs.push(("dependencies", String::new()));
@@ -366,8 +452,24 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         put(Event::Empty(elem("Unknown", &attrs)));
     }
     put(Event::End(BytesEnd::new("Outputs")));
+    let derivatives = indices(t, |v| v.derivative_of.is_some());
+    if !derivatives.is_empty() {
+        put(Event::Start(BytesStart::new("Derivatives")));
+        for i in derivatives {
+            put(Event::Empty(elem("Unknown", &[("index", i.to_string())])));
+        }
+        put(Event::End(BytesEnd::new("Derivatives")));
+    }
     put(Event::Start(BytesStart::new("InitialUnknowns")));
-    for i in index_of(&|v| matches!(v.causality.as_str(), "output" | "calculatedParameter")) {
+    // Outputs, calculated parameters, and (Model Exchange) the states and their derivatives,
+    // which are the only locals.
+    let initial = |v: &Var| {
+        matches!(
+            v.causality.as_str(),
+            "output" | "calculatedParameter" | "local"
+        )
+    };
+    for i in indices(t, initial) {
         put(Event::Empty(elem("Unknown", &[("index", i.to_string())])));
     }
     put(Event::End(BytesEnd::new("InitialUnknowns")));
@@ -397,6 +499,23 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         .map(|c| c[0].as_str())
         .collect();
     writeln!(w, "pub const LOG_CATEGORIES: &[&str] = &{cats:?};").unwrap();
+    let me = t.model.model_exchange.as_ref();
+    writeln!(
+        w,
+        "/// Model Exchange's event indicators (0: Co-Simulation only).\npub const N_EVENT_INDICATORS: usize = {};",
+        me.map_or(0, |m| m.event_indicators)
+    )
+    .unwrap();
+    let pairs: Vec<String> = states(t)
+        .iter()
+        .map(|(x, d)| format!("(Var::{}, Var::{})", x.ident(), d.ident()))
+        .collect();
+    writeln!(
+        w,
+        "/// The continuous states and their derivatives, in the order of the state vector.\npub const STATES: &[(Var, Var)] = &[{}];",
+        pairs.join(", ")
+    )
+    .unwrap();
     writeln!(
         w,
         "pub const DEFAULT_STOP_TIME: f64 = {};",
@@ -411,12 +530,12 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     )
     .unwrap();
     for v in &t.vars {
-        writeln!(w, "    /// {}\n    {},", v.description, v.name).unwrap();
+        writeln!(w, "    /// {}\n    {},", v.description, v.ident()).unwrap();
     }
     writeln!(w, "}}").unwrap();
 
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum VarType {{ Real, Integer, Boolean, String }}").unwrap();
-    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Causality {{ Parameter, CalculatedParameter, Input, Output }}").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Causality {{ Parameter, CalculatedParameter, Input, Output, Local }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]\npub enum Variability {{ Fixed, Tunable, Continuous, Discrete }}").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug)]\npub struct VarInfo {{ pub var: Var, pub name: &'static str, pub vr: u32, pub ty: VarType, pub causality: Causality, pub variability: Variability, pub unit: Option<&'static str>, pub range: Range, pub geometry: Option<i32>, pub description: &'static str }}").unwrap();
     writeln!(w, "/// A variable's bounds from the table (None: unbounded), each inclusive unless marked.\n#[derive(Clone, Copy, Debug)]\npub struct Range {{ pub min: Option<f64>, pub max: Option<f64>, pub exclusive_min: bool, pub exclusive_max: bool }}").unwrap();
@@ -437,7 +556,8 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         };
         writeln!(
             w,
-            "    VarInfo {{ var: Var::{n}, name: {n:?}, vr: {vr}, ty: VarType::{ty}, causality: Causality::{c}, variability: Variability::{va}, unit: {u:?}, range: Range {{ min: {min}, max: {max}, exclusive_min: {emin}, exclusive_max: {emax} }}, geometry: {g:?}, description: {d:?} }},",
+            "    VarInfo {{ var: Var::{id}, name: {n:?}, vr: {vr}, ty: VarType::{ty}, causality: Causality::{c}, variability: Variability::{va}, unit: {u:?}, range: Range {{ min: {min}, max: {max}, exclusive_min: {emin}, exclusive_max: {emax} }}, geometry: {g:?}, description: {d:?} }},",
+            id = v.ident(),
             n = v.name,
             vr = v.vr,
             ty = v.ty,
@@ -462,7 +582,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     )
     .unwrap();
     for v in &t.vars {
-        writeln!(w, "            {} => Some(Var::{}),", v.vr, v.name).unwrap();
+        writeln!(w, "            {} => Some(Var::{}),", v.vr, v.ident()).unwrap();
     }
     writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
     writeln!(
@@ -471,7 +591,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     )
     .unwrap();
     for (i, v) in t.vars.iter().enumerate() {
-        writeln!(w, "            Var::{} => &VARIABLES[{i}],", v.name).unwrap();
+        writeln!(w, "            Var::{} => &VARIABLES[{i}],", v.ident()).unwrap();
     }
     writeln!(w, "        }}\n    }}\n}}").unwrap();
 
@@ -492,6 +612,11 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
             "calculatedParameter",
             "Calculated parameters, computed from the geometry.",
         ),
+        (
+            "Locals",
+            "local",
+            "Locals: the continuous states that are not outputs, and the state derivatives.",
+        ),
     ] {
         let fields: Vec<&Var> = t.vars.iter().filter(|v| v.causality == causality).collect();
         let serde = if t.model.serde && matches!(causality, "parameter" | "input") {
@@ -510,7 +635,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
                 w,
                 "    /// {}{unit}\n    pub {}: {},",
                 v.description,
-                v.name,
+                v.ident(),
                 v.rust_type()
             )
             .unwrap();
@@ -533,7 +658,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
                     _ => "false".into(),
                 }
             };
-            writeln!(w, "            {}: {value},", v.name).unwrap();
+            writeln!(w, "            {}: {value},", v.ident()).unwrap();
         }
         writeln!(w, "        }}\n    }}\n}}").unwrap();
         writeln!(w, "impl {st} {{").unwrap();
@@ -547,11 +672,11 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
             writeln!(w, "    #[allow(unreachable_patterns)]\n    #[inline]\n    pub fn get_{lower}(&self, v: Var) -> Option<{get_ty}> {{\n        match v {{").unwrap();
             for f in fields.iter().filter(|f| f.ty == ty) {
                 let value = if ty == "String" {
-                    format!("self.{}.as_str()", f.name)
+                    format!("self.{}.as_str()", f.ident())
                 } else {
-                    format!("self.{}", f.name)
+                    format!("self.{}", f.ident())
                 };
-                writeln!(w, "            Var::{n} => Some({value}),", n = f.name).unwrap();
+                writeln!(w, "            Var::{n} => Some({value}),", n = f.ident()).unwrap();
             }
             writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
             writeln!(w, "    #[allow(unreachable_patterns, unused_variables)]\n    pub fn set_{lower}(&mut self, v: Var, x: {rty}) -> bool {{\n        match v {{").unwrap();
@@ -559,7 +684,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
                 writeln!(
                     w,
                     "            Var::{n} => {{ self.{n} = x; true }}",
-                    n = f.name
+                    n = f.ident()
                 )
                 .unwrap();
             }
@@ -571,7 +696,7 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         let reals: Vec<String> = fields
             .iter()
             .filter(|f| f.ty == "Real")
-            .map(|f| format!("(self.{n} - self.{n})", n = f.name))
+            .map(|f| format!("(self.{n} - self.{n})", n = f.ident()))
             .collect();
         writeln!(w, "    /// The first Real field that is NaN or infinite, with its name.\n    #[allow(clippy::eq_op)]\n    pub fn first_non_finite(&self) -> Option<(&'static str, f64)> {{").unwrap();
         if !reals.is_empty() {
@@ -585,7 +710,8 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         for f in fields.iter().filter(|f| f.ty == "Real") {
             writeln!(
                 w,
-                "        if !self.{n}.is_finite() {{ return Some(({n:?}, self.{n})); }}",
+                "        if !self.{id}.is_finite() {{ return Some(({n:?}, self.{id})); }}",
+                id = f.ident(),
                 n = f.name
             )
             .unwrap();

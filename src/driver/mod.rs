@@ -10,6 +10,7 @@
 
 pub mod bdf;
 pub mod dopri5;
+pub mod exchange;
 pub mod simulation;
 
 use serde::{Deserialize, Serialize};

@@ -8,15 +8,16 @@
 //! (GUID), or a truncated, corrupted or inconsistent one, is rejected with a reason.
 
 use super::instance::Snapshot;
+use crate::driver::exchange::Exchange;
 use crate::driver::simulation::Simulation;
 use crate::driver::Method;
 use crate::model::contact::N_EVENTS;
 use crate::variables::{Causality, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
-/// The version of the payload below (the envelope's format version): 6 since the payload is
-/// postcard; 1-5 were fields written one by one.
-pub const FORMAT_VERSION: u32 = 6;
+/// The version of the payload below (the envelope's format version): 7 since a Model Exchange
+/// instance saves its point (6: postcard; 1-5 were fields written one by one).
+pub const FORMAT_VERSION: u32 = 7;
 
 /// The checksum only proves the bytes arrived intact; a state edited with a recomputed checksum
 /// must not bring NaN, infinity or an invalid tolerance into the instance.
@@ -142,7 +143,35 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
         rebuild(&mut sim, &s)?;
         s.sim = Some(sim);
     }
+    if let Some(mut ex) = s.me.take() {
+        rebuild_exchange(&mut ex, &s)?;
+        s.me = Some(ex);
+    }
+    if s.sim.is_some() && s.me.is_some() {
+        return Err("a state holds both a Co-Simulation and a Model Exchange run".into());
+    }
     Ok(s)
+}
+
+/// `rebuild` for a Model Exchange run: its mesh's configuration, and finite values.
+fn rebuild_exchange(ex: &mut Exchange, s: &Snapshot) -> Result<(), String> {
+    let fresh = Simulation::new(&s.params, &s.inputs, s.start_time, s.params.rel_tol)
+        .map_err(|e| format!("parameters in the state: {e}"))?;
+    if ex.mesh.stats.is_some() != fresh.mesh.stats.is_some() {
+        return Err("the statistics in the state do not match the parameter statistics".into());
+    }
+    ex.mesh.cfg = fresh.mesh.cfg;
+    let sigma = ex.mesh.sigma;
+    ex.mesh.set_sigma(sigma);
+    let mut values = vec![ex.t, ex.mesh.e_gate, ex.mesh.e_start];
+    values.extend_from_slice(&ex.y);
+    values.extend_from_slice(&ex.mesh.sigma);
+    if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
+        return Err(format!(
+            "a value of the Model Exchange state is not finite ({bad})"
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -241,17 +270,18 @@ mod tests {
         assert!(decode(&longer).is_err());
     }
 
-    /// A state written by an older build (format version 5: fields written one by one) is
-    /// refused by its version before anything of it is read, with both versions named.
+    /// A state written by an older build (format version 5: fields written one by one; 6: no
+    /// Model Exchange run) is refused by its version before anything of it is read, with both
+    /// versions named.
     #[test]
     fn a_state_of_an_older_format_is_refused_by_its_version() {
-        let mut bytes = encode(FmiState::StepComplete, &running(1));
-        bytes[8..12].copy_from_slice(&5u32.to_le_bytes());
-        let e = decode(&bytes).unwrap_err();
-        assert!(
-            e.contains("state format version 5") && e.contains("reads version 6"),
-            "{e}"
-        );
+        for old in [5u32, 6] {
+            let mut bytes = encode(FmiState::StepComplete, &running(1));
+            bytes[8..12].copy_from_slice(&old.to_le_bytes());
+            let e = decode(&bytes).unwrap_err();
+            let (a, b) = (format!("state format version {old}"), "reads version 7");
+            assert!(e.contains(&a) && e.contains(b), "{e}");
+        }
     }
 
     /// The payload is the snapshot as serde writes it: a state whose checksum is right but

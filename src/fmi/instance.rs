@@ -4,18 +4,25 @@
 //! the instance had before it.
 
 use super::{fmu_state, outputs};
+use crate::driver::exchange::{EventError, Exchange};
 use crate::driver::simulation::Simulation;
 use crate::driver::DriverError;
 use crate::model::geometry;
 use crate::model::mesh::Ramp;
 use crate::model::Loads;
+use crate::model::{Mesh, State};
 use crate::variables::{
     Causality, Inputs, Outputs, Params, Var, VarType, Variability, GUID, LOG_CATEGORIES,
     MODEL_IDENTIFIER,
 };
+use crate::variables::{N_EVENT_INDICATORS, STATES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::logging::LOG_EVENTS;
-use fmi2_slave::{Boolean, Logger, Slave, Status, ValueReference};
+use fmi2_slave::{Boolean, EventUpdate, Logger, Slave, Status, ValueReference};
+
+// The event indicators are the mesh's event functions.
+const _: () = assert!(N_EVENT_INDICATORS == crate::model::contact::N_EVENTS);
+const _: () = assert!(STATES.len() == crate::driver::exchange::ME_STATE.len());
 
 pub use fmi2_slave::instance::{allowed, error, CallResult, Failure, FmiState};
 
@@ -32,7 +39,10 @@ pub struct Snapshot {
     pub tolerance: Option<f64>,
     /// The inputs' interpolation (fmi2SetRealInputDerivatives); all zero: held inputs.
     pub ramp: Ramp,
+    /// Co-Simulation, and either interface in initialization mode.
     pub sim: Option<Simulation>,
+    /// Model Exchange after initialization (the master integrates).
+    pub me: Option<Exchange>,
 }
 
 /// The model behind an FMU instance (the state machine around it is fmi2_slave's `Instance`).
@@ -57,6 +67,7 @@ impl Snapshot {
             tolerance: None,
             ramp: Ramp::default(),
             sim: None,
+            me: None,
         }
     }
 
@@ -131,6 +142,7 @@ impl Slave for SpurGearMesh {
             |i| i.get_real(v),
             |o| o.get_real(v),
             |c| c.get_real(v),
+            |l| l.get_real(v),
         )
     }
 
@@ -142,6 +154,7 @@ impl Slave for SpurGearMesh {
             |i| i.get_integer(v),
             |o| o.get_integer(v),
             |c| c.get_integer(v),
+            |l| l.get_integer(v),
         )
     }
 
@@ -153,6 +166,7 @@ impl Slave for SpurGearMesh {
             |i| i.get_boolean(v),
             |o| o.get_boolean(v),
             |c| c.get_boolean(v),
+            |l| l.get_boolean(v),
         )
     }
 
@@ -164,6 +178,7 @@ impl Slave for SpurGearMesh {
             |i| i.get_string(v).map(str::to_owned),
             |o| o.get_string(v).map(str::to_owned),
             |c| c.get_string(v).map(str::to_owned),
+            |l| l.get_string(v).map(str::to_owned),
         )
     }
 
@@ -339,10 +354,11 @@ impl Slave for SpurGearMesh {
     }
 
     fn time(&self) -> f64 {
-        self.snap
-            .sim
-            .as_ref()
-            .map_or(self.snap.start_time, |s| s.time())
+        match (&self.snap.me, &self.snap.sim) {
+            (Some(ex), _) => ex.t,
+            (None, Some(sim)) => sim.time(),
+            (None, None) => self.snap.start_time,
+        }
     }
 
     fn prepare_save(&mut self) {
@@ -357,6 +373,121 @@ impl Slave for SpurGearMesh {
 
     fn decode(r: &mut Reader) -> Result<SpurGearMesh, String> {
         fmu_state::read(r).map(SpurGearMesh::from)
+    }
+
+    // ---- Model Exchange: `Exchange` holds the point the master sets ---------------------------
+
+    const MODEL_EXCHANGE: bool = true;
+    const N_STATES: usize = STATES.len();
+    const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
+
+    fn me_exit_initialization(&mut self) -> Result<(), Failure> {
+        if self.snap.ramp.is_active() {
+            return Err(error(
+                "input derivatives are a Co-Simulation feature; a Model Exchange master sets the inputs".into(),
+            ));
+        }
+        self.build()?;
+        let sim = self.snap.sim.take().expect("just built");
+        self.snap.me = Some(Exchange::new(sim));
+        self.fresh = false;
+        self.outputs()?;
+        Ok(())
+    }
+
+    fn me_set_time(&mut self, t: f64) -> Result<(), Failure> {
+        let ex = self.exchange()?;
+        if ex.t != t {
+            ex.t = t;
+            self.fresh = false;
+        }
+        Ok(())
+    }
+
+    fn me_set_states(&mut self, x: &[f64]) -> Result<(), Failure> {
+        self.exchange()?.set_states(x);
+        self.fresh = false;
+        Ok(())
+    }
+
+    fn me_states(&mut self, x: &mut [f64]) -> Result<(), Failure> {
+        let (_, y) = self.point()?;
+        for (xj, &i) in x.iter_mut().zip(&crate::driver::exchange::ME_STATE) {
+            *xj = y[i];
+        }
+        Ok(())
+    }
+
+    fn me_derivatives(&mut self, dx: &mut [f64]) -> Result<(), Failure> {
+        if self.snap.me.is_none() {
+            // Initialization mode: the derivatives at the start point.
+            let l = self.locals()?;
+            for (d, &(_, der)) in dx.iter_mut().zip(STATES) {
+                *d = l.get_real(der).expect("a derivative is a Real local");
+            }
+            return Ok(());
+        }
+        let t = self.time();
+        self.exchange()?
+            .derivatives(dx)
+            .map_err(|e| error(format!("at t = {t} s: {e}")))
+    }
+
+    fn me_event_indicators(&mut self, z: &mut [f64]) -> Result<(), Failure> {
+        let (mesh, y) = self.point()?;
+        let mut m = [0.0; N_EVENT_INDICATORS];
+        mesh.event_margins(&y, &mut m);
+        z.copy_from_slice(&m);
+        Ok(())
+    }
+
+    fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
+        match &self.snap.me {
+            Some(ex) => ex.nominals(n),
+            None => Exchange::scales(&self.build()?.mesh, n),
+        }
+        Ok(())
+    }
+
+    fn me_enter_event_mode(&mut self) -> Result<(), Failure> {
+        self.exchange().map(|_| ())
+    }
+
+    fn me_new_discrete_states(&mut self, log: &Logger) -> Result<EventUpdate, Failure> {
+        let debug_events = log.enabled(LOG_EVENTS);
+        let ex = self.exchange()?;
+        ex.mesh.describe_events = debug_events;
+        let t = ex.t;
+        let mut texts = Vec::new();
+        let handled = ex.handle_events(&mut |r| {
+            if debug_events {
+                texts.push(format!("t = {t:.12} s: {}", r.what));
+            }
+        });
+        for e in &texts {
+            log.log(Status::Ok, LOG_EVENTS, e);
+        }
+        let ex = self.exchange()?;
+        let update = EventUpdate {
+            states_changed: ex.take_jump(),
+            nominals_changed: ex.take_nominals_changed(),
+            next_event_time: None,
+        };
+        self.fresh = false;
+        let changed = handled.map_err(|e: EventError| error(format!("at t = {t} s: {e}")))?;
+        Ok(EventUpdate {
+            states_changed: update.states_changed || changed,
+            ..update
+        })
+    }
+
+    fn me_completed_integrator_step(&mut self) -> Result<bool, Failure> {
+        let ex = self.exchange()?;
+        let t = ex.t;
+        ex.completed_step()
+            .map_err(|e| error(format!("at t = {t} s: {e}")))?;
+        self.fresh = false;
+        Ok(self.exchange()?.jump_pending())
     }
 }
 
@@ -402,14 +533,54 @@ impl SpurGearMesh {
         Ok(self.snap.sim.as_mut().expect("just built"))
     }
 
+    /// The Model Exchange run (after initialization).
+    fn exchange(&mut self) -> Result<&mut Exchange, Failure> {
+        self.snap
+            .me
+            .as_mut()
+            .ok_or_else(|| error("the instance has no Model Exchange state".into()))
+    }
+
+    /// The mesh and the state at the current time, of either interface.
+    fn point(&mut self) -> Result<(&Mesh, State), Failure> {
+        if self.snap.me.is_none() {
+            self.build()?;
+        }
+        Ok(match (&self.snap.me, &self.snap.sim) {
+            (Some(ex), _) => (&ex.mesh, ex.y),
+            (None, Some(sim)) => (&sim.mesh, sim.driver.state()),
+            (None, None) => unreachable!("built above"),
+        })
+    }
+
+    /// The locals (the states that are not outputs, the derivatives) at the current time; a
+    /// non-finite one is an error naming it, as for the outputs.
+    fn locals(&mut self) -> Result<crate::variables::Locals, Failure> {
+        let t = self.time();
+        let (mesh, y) = self.point()?;
+        let l = outputs::locals(mesh, &y).map_err(|e| error(format!("at t = {t} s: {e}")))?;
+        if let Some((name, x)) = l.first_non_finite() {
+            return Err(error(format!(
+                "{name} = {x} is not finite at t = {t}: check the parameters and start values"
+            )));
+        }
+        Ok(l)
+    }
+
     /// Outputs at the current time, computed once after each change and then read in place.
     /// A non-finite one (e.g. from absurd start values) is an error naming it: no NaN or
     /// infinity ever reaches a master.
     pub fn outputs(&mut self) -> Result<&Outputs, Failure> {
         if !self.fresh {
-            self.build()?;
-            let sim = self.snap.sim.as_ref().expect("just built");
-            outputs::write(sim, &mut self.outputs).map_err(|e| error(e.to_string()))?;
+            match &self.snap.me {
+                Some(ex) => outputs::write_exchange(ex, &mut self.outputs),
+                None => {
+                    self.build()?;
+                    let sim = self.snap.sim.as_ref().expect("just built");
+                    outputs::write(sim, &mut self.outputs)
+                }
+            }
+            .map_err(|e| error(e.to_string()))?;
             self.energy_fresh = false;
             if let Some((name, x)) = self.outputs.first_non_finite() {
                 return Err(error(format!(
@@ -427,8 +598,12 @@ impl SpurGearMesh {
     fn energy_outputs(&mut self) -> Result<&Outputs, Failure> {
         self.outputs()?;
         if !self.energy_fresh {
-            let sim = self.snap.sim.as_ref().expect("built by outputs()");
-            outputs::write_energy(sim, &mut self.outputs).map_err(|e| error(e.to_string()))?;
+            let (mesh, y) = match (&self.snap.me, &self.snap.sim) {
+                (Some(ex), _) => (&ex.mesh, ex.y),
+                (None, Some(sim)) => (&sim.mesh, sim.driver.state()),
+                (None, None) => unreachable!("built by outputs()"),
+            };
+            outputs::write_energy(mesh, &y, &mut self.outputs).map_err(|e| error(e.to_string()))?;
             let o = &self.outputs;
             for (name, x) in [
                 ("E_kin", o.E_kin),
@@ -454,13 +629,15 @@ impl SpurGearMesh {
         input: impl Fn(&Inputs) -> Option<T>,
         output: impl Fn(&Outputs) -> Option<T>,
         calc: impl Fn(&crate::variables::Calculated) -> Option<T>,
+        local: impl Fn(&crate::variables::Locals) -> Option<T>,
     ) -> Result<T, Failure> {
         let got = match v.info().causality {
             Causality::Parameter => param(&self.snap.params),
             Causality::Input => input(&self.snap.inputs),
             Causality::Output if outputs::is_energy(v) => output(self.energy_outputs()?),
             Causality::Output => output(self.outputs()?),
-            Causality::CalculatedParameter => calc(&outputs::calculated(&self.build()?.mesh)),
+            Causality::CalculatedParameter => calc(&outputs::calculated(self.point()?.0)),
+            Causality::Local => local(&self.locals()?),
         };
         Ok(got.expect("the generated table gives every variable a getter of its type"))
     }
@@ -508,6 +685,9 @@ impl SpurGearMesh {
             if let Some(sim) = self.snap.sim.as_mut() {
                 sim.set_loads(loads, ramp);
             }
+            if let Some(ex) = self.snap.me.as_mut() {
+                ex.set_loads(loads);
+            }
         } else {
             // Before the end of initialization the simulation is rebuilt from the parameters.
             self.snap.sim = None;
@@ -532,10 +712,12 @@ fn lookup(vr: u32, ty: VarType) -> Result<Var, Failure> {
 fn settable(v: Var, shown: &dyn std::fmt::Display, running: bool) -> Result<(), Failure> {
     let info = v.info();
     match (info.causality, info.variability) {
-        (Causality::Output | Causality::CalculatedParameter, _) => Err(error(format!(
-            "{} = {shown}: {} is a {:?}, it cannot be set",
-            info.name, info.name, info.causality
-        ))),
+        (Causality::Output | Causality::CalculatedParameter | Causality::Local, _) => {
+            Err(error(format!(
+                "{} = {shown}: {} is a {:?}, it cannot be set",
+                info.name, info.name, info.causality
+            )))
+        }
         (Causality::Parameter, Variability::Fixed) if running => Err(error(format!(
             "{} = {shown}: {} is a fixed parameter, it cannot be set after initialization",
             info.name, info.name

@@ -1,12 +1,13 @@
 //! The FMU's outputs and calculated parameters, assembled from the model's readout and the
 //! driver's counters: the one place that maps model quantities onto variable-table names.
 
+use crate::driver::exchange::{Exchange, ME_STATE};
 use crate::driver::simulation::Simulation;
 use crate::driver::Stats;
-use crate::model::mesh::{Energy, LawOutOfRange, Readout};
+use crate::model::mesh::{Energy, LawOutOfRange, Readout, DDTE, NY, V_S};
 use crate::model::statistics::Summary;
-use crate::model::Mesh;
-use crate::variables::{Calculated, Outputs, Var};
+use crate::model::{Mesh, State};
+use crate::variables::{Calculated, Locals, Outputs, Var, STATES};
 
 /// A counter as an FMI Integer, saturating at 2^31 - 1.
 fn saturate(n: u64) -> i32 {
@@ -17,7 +18,7 @@ fn saturate(n: u64) -> i32 {
 pub fn outputs(sim: &Simulation) -> Result<Outputs, LawOutOfRange> {
     let mut o = Outputs::default();
     write(sim, &mut o)?;
-    write_energy(sim, &mut o)?;
+    write_energy(&sim.mesh, &sim.driver.state(), &mut o)?;
     Ok(o)
 }
 
@@ -31,14 +32,44 @@ pub fn write(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
     Ok(())
 }
 
+/// `write` for Model Exchange: at the state the master set, with the statistics up to its
+/// last completed step and its counts of steps and evaluations.
+pub fn write_exchange(ex: &Exchange, o: &mut Outputs) -> Result<(), LawOutOfRange> {
+    let r = ex.mesh.readout(&ex.y)?;
+    let summary = ex
+        .mesh
+        .stats
+        .as_ref()
+        .map(|s| s.summary())
+        .unwrap_or_default();
+    assemble(&r, &summary, &ex.stats, o);
+    Ok(())
+}
+
 /// The outputs that `write` leaves out: they cost a law evaluation per flank (the elastic
 /// energy), so the FMU computes them when a master reads one (`is_energy`).
-pub fn write_energy(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
-    let e: Energy = sim.mesh.energy(&sim.driver.state())?;
+pub fn write_energy(mesh: &Mesh, y: &State, o: &mut Outputs) -> Result<(), LawOutOfRange> {
+    let e: Energy = mesh.energy(y)?;
     o.E_kin = e.e_kin;
     o.E_el = e.e_el;
     o.energy_residual = e.residual;
     Ok(())
+}
+
+/// The locals at state y: the states that are not outputs, and every state's derivative (a
+/// right-hand-side evaluation, so only when a master reads one).
+pub fn locals(mesh: &Mesh, y: &State) -> Result<Locals, LawOutOfRange> {
+    let mut dy = [0.0; NY];
+    mesh.rhs(y, &mut dy)?;
+    let mut l = Locals {
+        dte_rate: y[DDTE],
+        v_slider: y[V_S],
+        ..Locals::default()
+    };
+    for (k, &(_, der)) in STATES.iter().enumerate() {
+        l.set_real(der, dy[ME_STATE[k]]);
+    }
+    Ok(l)
 }
 
 /// The outputs `write_energy` computes.

@@ -151,6 +151,15 @@ impl Fmu {
     }
 
     pub fn try_new(name: &str, logging_on: bool) -> Option<Fmu> {
+        Self::try_new_of(name, logging_on, TYPE_CO_SIMULATION)
+    }
+
+    /// A Model Exchange instance.
+    pub fn new_me(name: &str) -> Fmu {
+        Self::try_new_of(name, true, TYPE_MODEL_EXCHANGE).expect("fmi2Instantiate")
+    }
+
+    pub fn try_new_of(name: &str, logging_on: bool, fmu_type: c_int) -> Option<Fmu> {
         let log = Box::<LogSink>::default();
         let cb = callbacks(&log);
         let cname = CString::new(name).unwrap();
@@ -158,7 +167,7 @@ impl Fmu {
         let c = unsafe {
             fmi2Instantiate(
                 cname.as_ptr(),
-                TYPE_CO_SIMULATION,
+                fmu_type,
                 guid.as_ptr(),
                 c"file:///nonexistent".as_ptr(),
                 &*cb,
@@ -203,6 +212,17 @@ impl Fmu {
         let (s, v) = self.get_reals(&[vr(name)]);
         assert_eq!(s, Status::Ok, "fmi2GetReal({name}): {:?}", self.log.take());
         v[0]
+    }
+    pub fn get_integer(&self, name: &str) -> i32 {
+        let mut v = 0;
+        let s = unsafe { fmi2GetInteger(self.c, &vr(name), 1, &mut v) };
+        assert_eq!(
+            s,
+            Status::Ok,
+            "fmi2GetInteger({name}): {:?}",
+            self.log.take()
+        );
+        v
     }
     pub fn setup(&self, stop: Option<f64>) -> Status {
         unsafe {

@@ -107,11 +107,14 @@ def format_start_value(value):
     return repr(float(value))  # shortest repr that round-trips: no precision lost
 
 
-def fmpy_command(fmu, scene, output_file, rel_tol=None):
+def fmpy_command(fmu, scene, output_file, rel_tol=None, solver=None):
     """The `fmpy simulate` command line of a scene.  rel_tol: passed as --relative-tolerance
     (fmi2SetupExperiment's tolerance, which overrides the FMU's rel_tol); None = the FMU's
-    default, as in CI."""
+    default, as in CI.  solver: None runs Co-Simulation (FMPy's default for this FMU); "CVode"
+    or "Euler" runs Model Exchange with FMPy's solver of that name."""
     cmd = [fmpy_executable(), "simulate", str(fmu), "--validate"]
+    if solver is not None:
+        cmd += ["--interface-type", "ModelExchange", "--solver", solver, "--dont-record-events"]
     sv = scene.get("start_values", {})
     if sv:
         cmd.append("--start-values")
@@ -183,10 +186,11 @@ def read_csv(path):
     return names, table
 
 
-def run_fmpy(fmu, scene, workdir, rel_tol=None):
+def run_fmpy(fmu, scene, workdir, rel_tol=None, solver=None):
     tag = "" if rel_tol is None else f".rtol{rel_tol:g}"
+    tag += "" if solver is None else f".me-{solver}"
     out = Path(workdir) / f"{scene['name']}{tag}.fmu.csv"
-    cmd = fmpy_command(Path(fmu).resolve(), scene, out, rel_tol)
+    cmd = fmpy_command(Path(fmu).resolve(), scene, out, rel_tol, solver)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(workdir))
     seconds = time.perf_counter() - t0

@@ -1,0 +1,173 @@
+//! The bodies of FMI 2.0's Model Exchange functions, generic over the model (`Slave`'s `me_*`
+//! methods). The master integrates and locates events; the model gives its states, derivatives
+//! and event indicators, and handles the events in fmi2NewDiscreteStates.
+//!
+//! # Safety
+//! As in `ffi`: the component is checked, and array arguments are checked for null and for the
+//! model's sizes.
+
+#![allow(clippy::missing_safety_doc)]
+
+use crate::ffi::{slice, slice_mut, with};
+use crate::instance::{allowed, error, CallResult, Failure, FmiState, Instance};
+use crate::{Boolean, Component, EventInfo, Slave, Status};
+
+/// `ffi::with` for a Model Exchange function: a Co-Simulation-only model, or a Co-Simulation
+/// instance, gets fmi2Error.
+fn with_me<S: Slave>(
+    c: Component,
+    func: &str,
+    states: u32,
+    body: impl FnOnce(&mut Instance<S>) -> CallResult,
+) -> Status {
+    if !S::MODEL_EXCHANGE {
+        let why = crate::slave::no_model_exchange::<S>().message;
+        // SAFETY: the component is checked there, as in every function.
+        return unsafe { crate::ffi::not_supported::<S>(c, func, allowed::ANY, &why) };
+    }
+    // SAFETY: checked as in `with` (null, or not a live instance: None).
+    match unsafe { crate::ffi::instance::<S>(c) } {
+        Some(i) if !i.model_exchange => i.call(func, allowed::ANY, |_| {
+            Err(error(
+                "a Model Exchange function, but the instance was instantiated for Co-Simulation"
+                    .into(),
+            ))
+        }),
+        _ => with::<S>(c, func, states, body),
+    }
+}
+
+/// The array of a state-sized (or indicator-sized) argument, its length checked.
+fn sized(n: usize, expected: usize, what: &str) -> Result<(), Failure> {
+    if n != expected {
+        return Err(error(format!(
+            "{what} = {n}: the FMU has {expected} (modelDescription.xml)"
+        )));
+    }
+    Ok(())
+}
+
+pub unsafe fn enter_event_mode<S: Slave>(c: Component) -> Status {
+    let states = allowed::EVENT | allowed::CONT;
+    with_me::<S>(c, "fmi2EnterEventMode", states, |i| {
+        i.slave.me_enter_event_mode()?;
+        i.state = FmiState::EventMode;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn new_discrete_states<S: Slave>(c: Component, info: *mut EventInfo) -> Status {
+    with_me::<S>(c, "fmi2NewDiscreteStates", allowed::EVENT, |i| {
+        let out = slice_mut(info, 1, "eventInfo")?;
+        let u = i.slave.me_new_discrete_states(&i.log)?;
+        out[0] = EventInfo {
+            new_discrete_states_needed: 0,
+            terminate_simulation: 0,
+            nominals_of_continuous_states_changed: u.nominals_changed as Boolean,
+            values_of_continuous_states_changed: u.states_changed as Boolean,
+            next_event_time_defined: u.next_event_time.is_some() as Boolean,
+            next_event_time: u.next_event_time.unwrap_or(0.0),
+        };
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn enter_continuous_time_mode<S: Slave>(c: Component) -> Status {
+    with_me::<S>(c, "fmi2EnterContinuousTimeMode", allowed::EVENT, |i| {
+        i.state = FmiState::ContinuousTimeMode;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn completed_integrator_step<S: Slave>(
+    c: Component,
+    _no_set_prior: Boolean,
+    enter_event_mode: *mut Boolean,
+    terminate: *mut Boolean,
+) -> Status {
+    with_me::<S>(c, "fmi2CompletedIntegratorStep", allowed::CONT, |i| {
+        let event = slice_mut(enter_event_mode, 1, "enterEventMode")?;
+        let stop = slice_mut(terminate, 1, "terminateSimulation")?;
+        event[0] = i.slave.me_completed_integrator_step()? as Boolean;
+        stop[0] = 0;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn set_time<S: Slave>(c: Component, time: f64) -> Status {
+    let states = allowed::EVENT | allowed::CONT;
+    with_me::<S>(c, "fmi2SetTime", states, |i| {
+        if !time.is_finite() {
+            return Err(error(format!("time = {time}: must be finite")));
+        }
+        i.slave.me_set_time(time)?;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn set_continuous_states<S: Slave>(c: Component, x: *const f64, nx: usize) -> Status {
+    with_me::<S>(c, "fmi2SetContinuousStates", allowed::CONT, |i| {
+        sized(nx, S::N_STATES, "nx")?;
+        let x = slice(x, nx, "x")?;
+        if let Some(k) = x.iter().position(|v| !v.is_finite()) {
+            return Err(error(format!("x[{k}] = {}: must be finite", x[k])));
+        }
+        i.slave.me_set_states(x)?;
+        Ok(Status::Ok)
+    })
+}
+
+/// The getters of state-sized or indicator-sized arrays.
+unsafe fn get_array<S: Slave>(
+    c: Component,
+    func: &str,
+    p: *mut f64,
+    n: usize,
+    (expected, what): (usize, &str),
+    get: impl FnOnce(&mut S, &mut [f64]) -> Result<(), Failure>,
+) -> Status {
+    with_me::<S>(c, func, allowed::ME_GET, |i| {
+        sized(n, expected, what)?;
+        let out = slice_mut(p, n, "the array")?;
+        get(&mut i.slave, out)?;
+        Ok(Status::Ok)
+    })
+}
+
+pub unsafe fn get_derivatives<S: Slave>(c: Component, dx: *mut f64, nx: usize) -> Status {
+    let size = (S::N_STATES, "nx");
+    get_array::<S>(c, "fmi2GetDerivatives", dx, nx, size, S::me_derivatives)
+}
+
+pub unsafe fn get_event_indicators<S: Slave>(c: Component, z: *mut f64, ni: usize) -> Status {
+    let size = (S::N_EVENT_INDICATORS, "ni");
+    get_array::<S>(
+        c,
+        "fmi2GetEventIndicators",
+        z,
+        ni,
+        size,
+        S::me_event_indicators,
+    )
+}
+
+pub unsafe fn get_continuous_states<S: Slave>(c: Component, x: *mut f64, nx: usize) -> Status {
+    let size = (S::N_STATES, "nx");
+    get_array::<S>(c, "fmi2GetContinuousStates", x, nx, size, S::me_states)
+}
+
+pub unsafe fn get_nominals_of_continuous_states<S: Slave>(
+    c: Component,
+    x: *mut f64,
+    nx: usize,
+) -> Status {
+    let size = (S::N_STATES, "nx");
+    get_array::<S>(
+        c,
+        "fmi2GetNominalsOfContinuousStates",
+        x,
+        nx,
+        size,
+        S::me_nominals,
+    )
+}

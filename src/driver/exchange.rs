@@ -1,0 +1,202 @@
+//! Model Exchange: the master integrates and locates the events, and the mesh is driven from
+//! outside. `Exchange` holds what the master sets (time and state), evaluates the right-hand
+//! side and the event functions there, and handles the events the master found, as the driver
+//! does inside a Co-Simulation step (`Mesh::handle_event`).
+//!
+//! The state vector is the integrator's without its time component (`ME_STATE`). The run's
+//! statistics (dte_mean, F_max...) are accumulated over the points where the master completes
+//! its steps, with the state interpolated linearly between them.
+
+use super::simulation::Simulation;
+use super::Stats;
+use crate::model::contact::{EventFn, N_EVENTS};
+use crate::model::mesh::{
+    EventReport, LawOutOfRange, DDTE, DTE, NY, THETA_A, V_S, W_A, W_EXT, W_LOSS, X_S,
+};
+use crate::model::{Loads, Mesh, State};
+use serde::{Deserialize, Serialize};
+
+/// The components of the integrator's state that are Model Exchange's states, in order.
+pub const ME_STATE: [usize; NY - 1] = [THETA_A, DTE, W_A, DDTE, W_EXT, W_LOSS, X_S, V_S];
+
+/// More events at one instant than this is a model that cannot settle (it is reported).
+const MAX_EVENTS_PER_INSTANT: usize = 64;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Exchange {
+    pub mesh: Mesh,
+    pub t: f64,
+    pub y: State,
+    /// The last accepted point (completed step or event): the statistics are added up to it.
+    last: (f64, State),
+    /// Completed integrator steps and right-hand-side evaluations (the master's), and events.
+    pub stats: Stats,
+    jumped: bool,
+    nominals_changed: bool,
+}
+
+impl Exchange {
+    /// Continues a simulation built at initialization from its current time and state.
+    pub fn new(sim: Simulation) -> Exchange {
+        let (t, y) = (sim.time(), sim.driver.state());
+        Exchange {
+            mesh: sim.mesh,
+            t,
+            y,
+            last: (t, y),
+            stats: Stats::default(),
+            jumped: false,
+            nominals_changed: false,
+        }
+    }
+
+    pub fn states(&self, x: &mut [f64]) {
+        for (xj, &i) in x.iter_mut().zip(&ME_STATE) {
+            *xj = self.y[i];
+        }
+    }
+
+    pub fn set_states(&mut self, x: &[f64]) {
+        for (&xj, &i) in x.iter().zip(&ME_STATE) {
+            self.y[i] = xj;
+        }
+    }
+
+    pub fn derivatives(&mut self, dx: &mut [f64]) -> Result<(), LawOutOfRange> {
+        let dy = self.rates()?;
+        self.stats.rhs_evals += 1;
+        for (d, &i) in dx.iter_mut().zip(&ME_STATE) {
+            *d = dy[i];
+        }
+        Ok(())
+    }
+
+    /// The state's time derivative at the current point.
+    pub fn rates(&self) -> Result<State, LawOutOfRange> {
+        let mut dy = [0.0; NY];
+        self.mesh.rhs(&self.y, &mut dy)?;
+        Ok(dy)
+    }
+
+    /// Scales of the states: those of the driver's absolute tolerances (the static penetration
+    /// under the current loads and its vibration speed; 1 rad and 1 rad/s), 1 J for the work
+    /// accounts.
+    pub fn nominals(&self, n: &mut [f64]) {
+        Exchange::scales(&self.mesh, n)
+    }
+
+    /// `nominals` of a mesh.
+    pub fn scales(mesh: &Mesh, n: &mut [f64]) {
+        let s = mesh.abs_tol(1.0);
+        let scale = [s[0], s[1], s[2], s[3], 1.0, 1.0, s[4], s[5]];
+        n.copy_from_slice(&scale[..n.len()]);
+    }
+
+    /// New inputs or tunable parameters: the right-hand side reads them from now on. A rigid
+    /// lock that the new loads would make pull is released at once, which may move the state
+    /// (two-sided contact); then the master is asked for an event (`take_jump`).
+    pub fn set_loads(&mut self, loads: Loads) {
+        let before = self.y;
+        self.mesh.set_loads(loads, &mut self.y);
+        self.jumped |= self.y != before;
+        self.nominals_changed = true;
+    }
+
+    /// Whether the state jumped outside the events the master located (the master should
+    /// enter event mode; `take_jump` there clears it).
+    pub fn jump_pending(&self) -> bool {
+        self.jumped
+    }
+
+    pub fn take_jump(&mut self) -> bool {
+        std::mem::take(&mut self.jumped)
+    }
+
+    /// Whether the nominals changed since the last call (they scale with the loads).
+    pub fn take_nominals_changed(&mut self) -> bool {
+        std::mem::take(&mut self.nominals_changed)
+    }
+
+    /// The master accepted its step up to the current point: the statistics take the piece
+    /// since the last one, and a state beyond the model's limits is an error.
+    pub fn completed_step(&mut self) -> Result<(), LawOutOfRange> {
+        self.mesh.check_state(&self.y)?;
+        self.stats.steps += 1;
+        self.observe_to_now()
+    }
+
+    fn observe_to_now(&mut self) -> Result<(), LawOutOfRange> {
+        let (t0, y0) = self.last;
+        let (t1, y1) = (self.t, self.y);
+        if let Some(mut s) = self.mesh.stats.take() {
+            let line = |t: f64| -> State {
+                let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
+                std::array::from_fn(|i| y0[i] + w * (y1[i] - y0[i]))
+            };
+            let r = s.add(&self.mesh, t0, t1, &line);
+            self.mesh.stats = Some(s);
+            r?;
+        }
+        self.last = (t1, y1);
+        Ok(())
+    }
+
+    /// Handles every event function that has crossed at the current point, one after the other
+    /// until none has: each handled event may change the others' functions (a pair switch moves
+    /// the gates). `log` receives each. Returns whether the state changed (an impact changes the
+    /// speeds).
+    ///
+    /// Crossed: a margin at or below 0 and falling, or below `-ROUNDING` whatever its rate (a
+    /// master without root finding stops after the crossing). A root finder such as CVODE's
+    /// stops where a function has changed sign or is exactly 0, and continues from there without
+    /// reporting the same root again. A margin at 0 that rises, or one a hair below 0 that
+    /// rises (the next function of a pair that just jumped, off by the jump's rounding), has
+    /// not crossed.
+    pub fn handle_events(&mut self, log: &mut dyn FnMut(&EventReport)) -> Result<bool, EventError> {
+        self.observe_to_now().map_err(EventError::Law)?;
+        let before = self.y;
+        let (mut m, mut rate) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+        for _ in 0..MAX_EVENTS_PER_INSTANT {
+            let dy = self.rates().map_err(EventError::Law)?;
+            self.mesh
+                .event_margins_and_rates(&self.y, &dy, &mut m, &mut rate);
+            let crossed = (0..self.mesh.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
+            let Some(i) = crossed else {
+                self.last = (self.t, self.y);
+                return Ok(self.y != before);
+            };
+            let report = self
+                .mesh
+                .handle_event(i, &mut self.y)
+                .map_err(EventError::Law)?;
+            self.stats.events += 1;
+            log(&report);
+        }
+        let last = (0..self.mesh.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
+        Err(EventError::NoSettle {
+            t: self.t,
+            last: format!("{:?}", last.map(EventFn::from_index)),
+        })
+    }
+}
+
+/// Margins are lengths in metres or dimensionless factors of order 1, and the rounding of a
+/// handled switch leaves them within about 1e-16 of 0: this separates that from a crossing.
+const ROUNDING: f64 = 1e-12;
+
+/// Whether an event function with this margin and rate has crossed (`handle_events`). The
+/// rigid constraint force has no rate (NaN): below 0 it has crossed.
+fn crossed(margin: f64, rate: f64) -> bool {
+    margin < -ROUNDING || (margin <= 0.0 && rate < 0.0) || (margin < 0.0 && rate.is_nan())
+}
+
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum EventError {
+    #[error(transparent)]
+    Law(LawOutOfRange),
+    #[error(
+        "at t = {t} s the events did not settle after {MAX_EVENTS_PER_INSTANT} at one instant \
+         (still crossed: {last})"
+    )]
+    NoSettle { t: f64, last: String },
+}
