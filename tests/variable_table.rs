@@ -240,3 +240,18 @@ fn parameter_ranges_come_from_the_table() {
     }
     assert!(checked >= 25, "{checked} bounds");
 }
+
+/// The event indicators of Model Exchange are the mesh's event functions, in their order.
+#[test]
+fn event_indicators_are_the_event_functions() {
+    use spur_gear_mesh::model::contact::{EventFn, N_EVENTS};
+    use spur_gear_mesh::variables::{EVENT_INDICATOR_NAMES, N_EVENT_INDICATORS};
+    assert_eq!(N_EVENT_INDICATORS, N_EVENTS);
+    for (i, name) in EVENT_INDICATOR_NAMES.iter().enumerate() {
+        assert_eq!(
+            *name,
+            format!("z_{}", EventFn::from_index(i).name()),
+            "indicator {i}"
+        );
+    }
+}

@@ -27,7 +27,7 @@ use std::os::raw::{c_char, c_int};
 /// More values than any master can mean; guards against garbage counts.
 const MAX_VALUES: usize = 1 << 20;
 
-pub(crate) unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
+pub unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
     if c.is_null() {
         return None;
     }
@@ -35,7 +35,7 @@ pub(crate) unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Inst
     (i.magic == MAGIC).then_some(i)
 }
 
-pub(crate) fn with<S: Slave>(
+pub fn with<S: Slave>(
     c: Component,
     func: &str,
     states: u32,
@@ -48,7 +48,7 @@ pub(crate) fn with<S: Slave>(
 }
 
 /// A C array argument: null is allowed only for n = 0.
-pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Failure> {
+pub unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&'a [T], Failure> {
     if n == 0 {
         Ok(&[])
     } else if p.is_null() || n > MAX_VALUES {
@@ -60,11 +60,7 @@ pub(crate) unsafe fn slice<'a, T>(p: *const T, n: usize, what: &str) -> Result<&
     }
 }
 
-pub(crate) unsafe fn slice_mut<'a, T>(
-    p: *mut T,
-    n: usize,
-    what: &str,
-) -> Result<&'a mut [T], Failure> {
+pub unsafe fn slice_mut<'a, T>(p: *mut T, n: usize, what: &str) -> Result<&'a mut [T], Failure> {
     if n == 0 {
         Ok(&mut [])
     } else if p.is_null() || n > MAX_VALUES {

@@ -68,6 +68,27 @@ pub struct Failure {
 
 pub type CallResult = Result<Status, Failure>;
 
+/// The FMI 3.0 function that does what an FMI 2.0 function does, for messages: the bodies
+/// are shared, and name their FMI 2.0 function.
+pub fn fmi3_name(fmi2: &str) -> std::borrow::Cow<'_, str> {
+    let special = [
+        ("fmi2GetReal", "fmi3GetFloat64"),
+        ("fmi2SetReal", "fmi3SetFloat64"),
+        ("fmi2GetInteger", "fmi3GetInt32"),
+        ("fmi2SetInteger", "fmi3SetInt32"),
+        ("fmi2GetDerivatives", "fmi3GetContinuousStateDerivatives"),
+        ("fmi2NewDiscreteStates", "fmi3UpdateDiscreteStates"),
+        ("fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState"),
+    ];
+    if let Some((_, n)) = special.iter().find(|(a, _)| *a == fmi2) {
+        return (*n).into();
+    }
+    match fmi2.strip_prefix("fmi2") {
+        Some(rest) => format!("fmi3{}", rest.replace("FMUstate", "FMUState")).into(),
+        None => fmi2.into(),
+    }
+}
+
 pub fn error(message: String) -> Failure {
     Failure {
         status: Status::Error,
@@ -88,6 +109,8 @@ pub struct Instance<S: Slave> {
     pub state: FmiState,
     /// Instantiated for Model Exchange (else Co-Simulation).
     pub model_exchange: bool,
+    /// Called through FMI 3.0's functions: messages name those (`fmi3_name`).
+    pub fmi3: bool,
     pub slave: S,
     /// FMU states handed out by this instance (owned here, freed by fmi2FreeFMUstate or at free).
     pub(crate) fmu_states: HashSet<usize>,
@@ -105,6 +128,7 @@ impl<S: Slave> Instance<S> {
             log,
             state: FmiState::Instantiated,
             model_exchange,
+            fmi3: false,
             slave: S::fresh(),
             fmu_states: HashSet::new(),
             strings: Vec::new(),
@@ -118,6 +142,11 @@ impl<S: Slave> Instance<S> {
         states: u32,
         body: impl FnOnce(&mut Instance<S>) -> CallResult,
     ) -> Status {
+        let func = if self.fmi3 {
+            fmi3_name(func)
+        } else {
+            func.into()
+        };
         if states & self.state as u32 == 0 {
             self.log.log_status(
                 Status::Error,

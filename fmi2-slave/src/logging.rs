@@ -9,6 +9,7 @@
 
 use crate::{ComponentEnvironment, LoggerFn, Status};
 use std::ffi::CString;
+use std::os::raw::c_char;
 
 /// Category names recommended by the FMI 2.0 standard (section 2.1.5).
 pub const LOG_EVENTS: &str = "logEvents";
@@ -31,8 +32,19 @@ fn is_status_category(name: &str) -> bool {
     name.starts_with("logStatus")
 }
 
+/// fmi3LogMessageCallback: (instanceEnvironment, status, category, message), not printf-style.
+pub type Fmi3LogFn =
+    unsafe extern "C" fn(ComponentEnvironment, Status, *const c_char, *const c_char);
+
+/// The master's logging callback, of either FMI version.
+#[derive(Clone, Copy)]
+enum Callback {
+    Fmi2(LoggerFn),
+    Fmi3(Fmi3LogFn),
+}
+
 pub struct Logger {
-    callback: Option<LoggerFn>,
+    callback: Option<Callback>,
     env: ComponentEnvironment,
     instance_name: CString,
     categories: &'static [&'static str],
@@ -54,13 +66,25 @@ impl Logger {
         debug: bool,
     ) -> Logger {
         let mut l = Logger {
-            callback,
+            callback: callback.map(Callback::Fmi2),
             env,
             instance_name: c_text(instance_name),
             categories,
             enabled: vec![false; categories.len()],
         };
         l.set_all(debug);
+        l
+    }
+
+    /// A logger for an FMI 3.0 instance (its callback has no instance name).
+    pub fn new_fmi3(
+        callback: Option<Fmi3LogFn>,
+        env: ComponentEnvironment,
+        categories: &'static [&'static str],
+        debug: bool,
+    ) -> Logger {
+        let mut l = Logger::new(None, env, "", categories, debug);
+        l.callback = callback.map(Callback::Fmi3);
         l
     }
 
@@ -97,20 +121,33 @@ impl Logger {
     }
 
     pub fn log(&self, status: Status, category: &str, message: &str) {
-        if let (true, Some(cb)) = (self.enabled(category), self.callback) {
-            let category = c_text(category);
-            let text = c_text(message);
-            // SAFETY: the master gave this callback for exactly these arguments; every string is
-            // NUL-terminated and outlives the call, and the message has no unescaped %.
-            unsafe {
-                cb(
-                    self.env,
-                    self.instance_name.as_ptr(),
-                    status,
-                    category.as_ptr(),
-                    text.as_ptr(),
-                )
-            };
+        if !self.enabled(category) {
+            return;
+        }
+        match self.callback {
+            Some(Callback::Fmi2(cb)) => {
+                let category = c_text(category);
+                let text = c_text(message);
+                // SAFETY: the master gave this callback for exactly these arguments; every
+                // string is NUL-terminated and outlives the call, and the message has no
+                // unescaped %.
+                unsafe {
+                    cb(
+                        self.env,
+                        self.instance_name.as_ptr(),
+                        status,
+                        category.as_ptr(),
+                        text.as_ptr(),
+                    )
+                };
+            }
+            Some(Callback::Fmi3(cb)) => {
+                let plain = |s: &str| CString::new(s.replace('\0', " ")).expect("NULs replaced");
+                let (category, text) = (plain(category), plain(message));
+                // SAFETY: as above; FMI 3.0 messages are not formatted by the master.
+                unsafe { cb(self.env, status, category.as_ptr(), text.as_ptr()) };
+            }
+            None => {}
         }
     }
 

@@ -10,11 +10,11 @@
 
 use crate::ffi::{slice, slice_mut, with};
 use crate::instance::{allowed, error, CallResult, Failure, FmiState, Instance};
-use crate::{Boolean, Component, EventInfo, Slave, Status};
+use crate::{Boolean, Component, EventInfo, EventUpdate, Slave, Status};
 
 /// `ffi::with` for a Model Exchange function: a Co-Simulation-only model, or a Co-Simulation
 /// instance, gets fmi2Error.
-fn with_me<S: Slave>(
+pub fn with_me<S: Slave>(
     c: Component,
     func: &str,
     states: u32,
@@ -57,9 +57,8 @@ pub unsafe fn enter_event_mode<S: Slave>(c: Component) -> Status {
 }
 
 pub unsafe fn new_discrete_states<S: Slave>(c: Component, info: *mut EventInfo) -> Status {
-    with_me::<S>(c, "fmi2NewDiscreteStates", allowed::EVENT, |i| {
+    update_discrete_states::<S>(c, |u| {
         let out = slice_mut(info, 1, "eventInfo")?;
-        let u = i.slave.me_new_discrete_states(&i.log)?;
         out[0] = EventInfo {
             new_discrete_states_needed: 0,
             terminate_simulation: 0,
@@ -68,6 +67,20 @@ pub unsafe fn new_discrete_states<S: Slave>(c: Component, info: *mut EventInfo) 
             next_event_time_defined: u.next_event_time.is_some() as Boolean,
             next_event_time: u.next_event_time.unwrap_or(0.0),
         };
+        Ok(())
+    })
+}
+
+/// fmi2NewDiscreteStates and fmi3UpdateDiscreteStates: the model handles the events, `write`
+/// hands the result to the master's arguments. (The events are settled in one call, so a
+/// further update is never needed.)
+pub unsafe fn update_discrete_states<S: Slave>(
+    c: Component,
+    write: impl FnOnce(EventUpdate) -> Result<(), Failure>,
+) -> Status {
+    with_me::<S>(c, "fmi2NewDiscreteStates", allowed::EVENT, |i| {
+        let u = i.slave.me_new_discrete_states(&i.log)?;
+        write(u)?;
         Ok(Status::Ok)
     })
 }
@@ -85,11 +98,22 @@ pub unsafe fn completed_integrator_step<S: Slave>(
     enter_event_mode: *mut Boolean,
     terminate: *mut Boolean,
 ) -> Status {
+    completed_step::<S>(c, |enter| {
+        slice_mut(enter_event_mode, 1, "enterEventMode")?[0] = enter as Boolean;
+        slice_mut(terminate, 1, "terminateSimulation")?[0] = 0;
+        Ok(())
+    })
+}
+
+/// fmi2CompletedIntegratorStep and fmi3's: `write` hands the master whether to enter event
+/// mode (the model never asks to terminate).
+pub unsafe fn completed_step<S: Slave>(
+    c: Component,
+    write: impl FnOnce(bool) -> Result<(), Failure>,
+) -> Status {
     with_me::<S>(c, "fmi2CompletedIntegratorStep", allowed::CONT, |i| {
-        let event = slice_mut(enter_event_mode, 1, "enterEventMode")?;
-        let stop = slice_mut(terminate, 1, "terminateSimulation")?;
-        event[0] = i.slave.me_completed_integrator_step()? as Boolean;
-        stop[0] = 0;
+        let enter = i.slave.me_completed_integrator_step()?;
+        write(enter)?;
         Ok(Status::Ok)
     })
 }

@@ -147,6 +147,8 @@ pub trait Slave: Clone + 'static {
     const MODEL_EXCHANGE: bool = false;
     const N_STATES: usize = 0;
     const N_EVENT_INDICATORS: usize = 0;
+    /// FMI 3.0 declares the event indicators as variables: their value references start here.
+    const EVENT_INDICATOR_VR0: u32 = 0;
 
     /// fmi2ExitInitializationMode of a Model Exchange instance: afterwards the master
     /// integrates, and the model is in event mode.

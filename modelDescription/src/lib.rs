@@ -55,7 +55,10 @@ pub struct ModelInfo {
 
 #[derive(Debug, Deserialize)]
 pub struct ModelExchange {
-    pub event_indicators: usize,
+    /// The value reference of the first event indicator (FMI 3.0 declares them as variables).
+    pub event_indicator_vr: u32,
+    /// Name and description of each event indicator, in order.
+    pub event_indicators: Vec<[String; 2]>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -241,6 +244,14 @@ fn check(t: &Table) {
             );
         }
     }
+    if let Some(me) = &t.model.model_exchange {
+        let n = me.event_indicators.len() as u32;
+        let block = me.event_indicator_vr..me.event_indicator_vr + n;
+        assert!(
+            t.vars.iter().all(|v| !block.contains(&v.vr) && v.vr != 0),
+            "the event indicators' value references {block:?} and 0 (FMI 3.0's time) must be free"
+        );
+    }
     let derivatives = t.vars.iter().filter(|v| v.derivative_of.is_some()).count();
     assert_eq!(
         t.model.model_exchange.is_some(),
@@ -289,7 +300,49 @@ fn elem<'a>(name: &'a str, attrs: &[(&str, String)]) -> BytesStart<'a> {
     e
 }
 
-/// modelDescription.xml for FMI 2.0 Co-Simulation.
+/// UnitDefinitions, LogCategories and DefaultExperiment: the same in FMI 2.0 and 3.0.
+fn units_categories_experiment(t: &Table, put: &mut dyn FnMut(Event)) {
+    put(Event::Start(BytesStart::new("UnitDefinitions")));
+    for (name, u) in &t.units {
+        put(Event::Start(elem("Unit", &[("name", name.clone())])));
+        let mut base = Vec::new();
+        for (k, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("rad", u.rad)] {
+            if e != 0 {
+                base.push((k, e.to_string()));
+            }
+        }
+        put(Event::Empty(elem("BaseUnit", &base)));
+        for (d, factor) in &u.display {
+            put(Event::Empty(elem(
+                "DisplayUnit",
+                &[("name", d.clone()), ("factor", format_real(*factor))],
+            )));
+        }
+        put(Event::End(BytesEnd::new("Unit")));
+    }
+    put(Event::End(BytesEnd::new("UnitDefinitions")));
+
+    put(Event::Start(BytesStart::new("LogCategories")));
+    for [name, desc] in &t.model.log_categories {
+        put(Event::Empty(elem(
+            "Category",
+            &[("name", name.clone()), ("description", desc.clone())],
+        )));
+    }
+    put(Event::End(BytesEnd::new("LogCategories")));
+
+    let mut experiment = vec![
+        ("startTime", format_real(t.model.start_time)),
+        ("stopTime", format_real(t.model.stop_time)),
+    ];
+    if let Some(tol) = t.model.tolerance {
+        experiment.push(("tolerance", format_real(tol)));
+    }
+    experiment.push(("stepSize", format_real(t.model.step_size)));
+    put(Event::Empty(elem("DefaultExperiment", &experiment)));
+}
+
+/// modelDescription.xml for FMI 2.0: Co-Simulation, and Model Exchange if the table has it.
 pub fn model_description_xml(t: &Table, version: &str) -> String {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
@@ -313,7 +366,7 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
                 t.model
                     .model_exchange
                     .as_ref()
-                    .map_or(0, |m| m.event_indicators)
+                    .map_or(0, |m| m.event_indicators.len())
                     .to_string(),
             ),
         ],
@@ -353,44 +406,7 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         ],
     )));
 
-    put(Event::Start(BytesStart::new("UnitDefinitions")));
-    for (name, u) in &t.units {
-        put(Event::Start(elem("Unit", &[("name", name.clone())])));
-        let mut base = Vec::new();
-        for (k, e) in [("kg", u.kg), ("m", u.m), ("s", u.s), ("rad", u.rad)] {
-            if e != 0 {
-                base.push((k, e.to_string()));
-            }
-        }
-        put(Event::Empty(elem("BaseUnit", &base)));
-        for (d, factor) in &u.display {
-            put(Event::Empty(elem(
-                "DisplayUnit",
-                &[("name", d.clone()), ("factor", format_real(*factor))],
-            )));
-        }
-        put(Event::End(BytesEnd::new("Unit")));
-    }
-    put(Event::End(BytesEnd::new("UnitDefinitions")));
-
-    put(Event::Start(BytesStart::new("LogCategories")));
-    for [name, desc] in &t.model.log_categories {
-        put(Event::Empty(elem(
-            "Category",
-            &[("name", name.clone()), ("description", desc.clone())],
-        )));
-    }
-    put(Event::End(BytesEnd::new("LogCategories")));
-
-    let mut experiment = vec![
-        ("startTime", format_real(t.model.start_time)),
-        ("stopTime", format_real(t.model.stop_time)),
-    ];
-    if let Some(tol) = t.model.tolerance {
-        experiment.push(("tolerance", format_real(tol)));
-    }
-    experiment.push(("stepSize", format_real(t.model.step_size)));
-    put(Event::Empty(elem("DefaultExperiment", &experiment)));
+    units_categories_experiment(t, &mut put);
 
     put(Event::Start(BytesStart::new("ModelVariables")));
     for (i, v) in t.vars.iter().enumerate() {
@@ -480,6 +496,176 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
     xml
 }
 
+/// The FMI 3.0 type of a table type.
+fn fmi3_type(ty: &str) -> &'static str {
+    match ty {
+        "Real" => "Float64",
+        "Integer" => "Int32",
+        "Boolean" => "Boolean",
+        "String" => "String",
+        t => panic!("unknown type {t}"),
+    }
+}
+
+/// modelDescription.xml for FMI 3.0 (Co-Simulation and Model Exchange) from the same table:
+/// the same variables and value references, plus what FMI 3.0 declares as variables of its own,
+/// the independent variable `time` (value reference 0) and the event indicators.
+pub fn model_description_xml3(t: &Table, version: &str) -> String {
+    let me = t
+        .model
+        .model_exchange
+        .as_ref()
+        .expect("the FMI 3.0 description is written for Model Exchange too");
+    let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
+    let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
+    put(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
+    put(Event::Start(elem(
+        "fmiModelDescription",
+        &[
+            ("fmiVersion", "3.0".into()),
+            ("modelName", t.model.name.clone()),
+            ("instantiationToken", guid(t, version)),
+            ("description", t.model.description.clone()),
+            ("author", t.model.author.clone()),
+            ("version", version.into()),
+            (
+                "generationTool",
+                "SpurGearMesh modelDescription generator".into(),
+            ),
+            ("variableNamingConvention", "flat".into()),
+        ],
+    )));
+    let common = [
+        ("modelIdentifier", t.model.name.clone()),
+        ("canGetAndSetFMUState", "true".into()),
+        ("canSerializeFMUState", "true".into()),
+    ];
+    let mut attrs = common.to_vec();
+    attrs.push(("needsCompletedIntegratorStep", "true".into()));
+    put(Event::Empty(elem("ModelExchange", &attrs)));
+    let mut attrs = common.to_vec();
+    attrs.extend([
+        ("canHandleVariableCommunicationStepSize", "true".into()),
+        ("hasEventMode", "false".into()),
+        ("maxOutputDerivativeOrder", "0".into()),
+    ]);
+    put(Event::Empty(elem("CoSimulation", &attrs)));
+    units_categories_experiment(t, &mut put);
+
+    put(Event::Start(BytesStart::new("ModelVariables")));
+    put(Event::Empty(elem(
+        "Float64",
+        &[
+            ("name", "time".into()),
+            ("valueReference", "0".into()),
+            ("causality", "independent".into()),
+            ("variability", "continuous".into()),
+            ("unit", "s".into()),
+            ("description", "Simulation time".into()),
+        ],
+    )));
+    let vr_of = |name: &str| t.vars.iter().find(|v| v.name == name).expect("checked").vr;
+    for v in &t.vars {
+        let mut attrs = vec![
+            ("name", v.name.clone()),
+            ("valueReference", v.vr.to_string()),
+            ("description", v.description.clone()),
+            ("causality", v.causality.clone()),
+            ("variability", v.variability.clone()),
+        ];
+        match v.causality.as_str() {
+            "parameter" => attrs.push(("initial", "exact".into())),
+            "calculatedParameter" | "output" | "local" => {
+                attrs.push(("initial", "calculated".into()))
+            }
+            _ => {}
+        }
+        if let Some(u) = &v.unit {
+            attrs.push(("unit", u.clone()));
+        }
+        if let Some(d) = &v.display_unit {
+            attrs.push(("displayUnit", d.clone()));
+        }
+        for (k, bound) in [("min", v.min), ("max", v.max)] {
+            if let Some(b) = bound {
+                let text = if v.ty == "Integer" {
+                    (b as i64).to_string()
+                } else {
+                    format_real(b)
+                };
+                attrs.push((k, text));
+            }
+        }
+        let start = v.start_text();
+        if v.ty != "String" {
+            if let Some(s) = &start {
+                attrs.push(("start", s.clone()));
+            }
+        }
+        if let Some(of) = &v.derivative_of {
+            attrs.push(("derivative", vr_of(of).to_string()));
+        }
+        let ty = fmi3_type(&v.ty);
+        match (v.ty.as_str(), start) {
+            ("String", Some(s)) => {
+                put(Event::Start(elem(ty, &attrs)));
+                put(Event::Empty(elem("Start", &[("value", s)])));
+                put(Event::End(BytesEnd::new(ty)));
+            }
+            _ => put(Event::Empty(elem(ty, &attrs))),
+        }
+    }
+    for (k, [name, desc]) in me.event_indicators.iter().enumerate() {
+        put(Event::Empty(elem(
+            "Float64",
+            &[
+                ("name", name.clone()),
+                (
+                    "valueReference",
+                    (me.event_indicator_vr + k as u32).to_string(),
+                ),
+                ("description", format!("Event indicator: {desc}")),
+                ("causality", "local".into()),
+                ("variability", "continuous".into()),
+                ("initial", "calculated".into()),
+            ],
+        )));
+    }
+    put(Event::End(BytesEnd::new("ModelVariables")));
+
+    put(Event::Start(BytesStart::new("ModelStructure")));
+    let unknowns = |put: &mut dyn FnMut(Event), tag: &str, pred: &dyn Fn(&Var) -> bool| {
+        for v in t.vars.iter().filter(|v| pred(v)) {
+            put(Event::Empty(elem(
+                tag,
+                &[("valueReference", v.vr.to_string())],
+            )));
+        }
+    };
+    unknowns(&mut put, "Output", &|v| v.causality == "output");
+    unknowns(&mut put, "ContinuousStateDerivative", &|v| {
+        v.derivative_of.is_some()
+    });
+    unknowns(&mut put, "InitialUnknown", &|v| {
+        matches!(
+            v.causality.as_str(),
+            "output" | "calculatedParameter" | "local"
+        )
+    });
+    for k in 0..me.event_indicators.len() {
+        let vr = me.event_indicator_vr + k as u32;
+        put(Event::Empty(elem(
+            "EventIndicator",
+            &[("valueReference", vr.to_string())],
+        )));
+    }
+    put(Event::End(BytesEnd::new("ModelStructure")));
+    put(Event::End(BytesEnd::new("fmiModelDescription")));
+    let mut xml = String::from_utf8(w.into_inner()).expect("quick-xml writes UTF-8");
+    xml.push('\n');
+    xml
+}
+
 /// Rust bindings: `Var` (one variant per variable, named as in the table), its metadata,
 /// and one struct per causality group with typed getters and setters by `Var`.
 pub fn rust_bindings(t: &Table, version: &str) -> String {
@@ -503,7 +689,21 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     writeln!(
         w,
         "/// Model Exchange's event indicators (0: Co-Simulation only).\npub const N_EVENT_INDICATORS: usize = {};",
-        me.map_or(0, |m| m.event_indicators)
+        me.map_or(0, |m| m.event_indicators.len())
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "/// The value reference of the first event indicator (FMI 3.0).\npub const EVENT_INDICATOR_VR0: u32 = {};",
+        me.map_or(0, |m| m.event_indicator_vr)
+    )
+    .unwrap();
+    let names: Vec<&str> = me
+        .map(|m| m.event_indicators.iter().map(|e| e[0].as_str()).collect())
+        .unwrap_or_default();
+    writeln!(
+        w,
+        "/// The event indicators' names (FMI 3.0 variables).\npub const EVENT_INDICATOR_NAMES: &[&str] = &{names:?};"
     )
     .unwrap();
     let pairs: Vec<String> = states(t)

@@ -380,6 +380,7 @@ impl Slave for SpurGearMesh {
     const MODEL_EXCHANGE: bool = true;
     const N_STATES: usize = STATES.len();
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
+    const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
 
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {
         if self.snap.ramp.is_active() {

@@ -91,6 +91,26 @@ impl EventFn {
         }
     }
 
+    /// A short name: `top_f1`, `pen_forward`, `relief_A_b2`... (the FMI 3.0 event indicator
+    /// of this function is `z_` and the name).
+    pub fn name(self) -> String {
+        let flank = |f: Flank| match f {
+            Flank::Forward => "forward",
+            Flank::Backward => "backward",
+        };
+        match self {
+            EventFn::Top(k) => format!("top_{}", SLOT_NAMES[k]),
+            EventFn::Bottom(k) => format!("bottom_{}", SLOT_NAMES[k]),
+            EventFn::Gate(k) => format!("gate_{}", SLOT_NAMES[k]),
+            EventFn::Pen(f) => format!("pen_{}", flank(f)),
+            EventFn::Rel(f) => format!("rel_{}", flank(f)),
+            EventFn::PairPen(k) => format!("pair_pen_{}", SLOT_NAMES[k]),
+            EventFn::PairRel(k) => format!("pair_rel_{}", SLOT_NAMES[k]),
+            EventFn::ReliefA(k) => format!("relief_A_{}", SLOT_NAMES[k]),
+            EventFn::ReliefB(k) => format!("relief_B_{}", SLOT_NAMES[k]),
+        }
+    }
+
     /// The event function of index i, from a table built at compile time (the margin loops
     /// run through every event at every step).
     #[inline(always)]

@@ -45,6 +45,14 @@ def fmu_path():
 
 
 @pytest.fixture(scope="session")
+def fmu3_path(fmu_path):
+    """The FMI 3.0 FMU, which the packager writes beside the FMI 2.0 one."""
+    path = fmu_path.parent / "SpurGearMesh-fmi3.fmu"
+    assert path.is_file(), path
+    return path
+
+
+@pytest.fixture(scope="session")
 def model_description(fmu_path):
     return fmpy.read_model_description(str(fmu_path))
 

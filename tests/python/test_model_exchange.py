@@ -1,7 +1,8 @@
 """Model Exchange through FMPy (issue 10, point 3): the same SpurGearMesh.fmu, instantiated as
 fmi2ModelExchange, integrated by FMPy's CVode and Euler from the real `fmpy simulate` command.
 
-- Every damped scene (chi > 0) matches its independent reference trace within 1e-3 of the
+- Every damped scene (chi > 0), through the FMI 2.0 and the FMI 3.0 FMU, matches its
+  independent reference trace within 1e-3 of the
   reference's dte range (the issue's bound), and the statistics scene (rattle) within its own
   statistics bounds.  In Model Exchange the master's solver sets the accuracy, so each scene runs
   CVode at the integration tolerance the scene file states for itself (its `rel_tol` start value:
@@ -39,11 +40,13 @@ def reference_on_grid(name, scene):
     return ref, names, table
 
 
+@pytest.mark.parametrize("version", ["fmi2", "fmi3"])
 @pytest.mark.parametrize("name", DAMPED)
-def test_cvode_matches_the_reference(name, fmu_path, tmp_path):
+def test_cvode_matches_the_reference(name, version, fmu_path, fmu3_path, tmp_path):
     scene = S.G.load_scene(name)
     rel_tol = scene.get("start_values", {}).get("rel_tol")
-    fnames, ftab, _, cmd = S.run_fmpy(fmu_path, scene, tmp_path, rel_tol=rel_tol, solver="CVode")
+    fmu = fmu_path if version == "fmi2" else fmu3_path
+    fnames, ftab, _, cmd = S.run_fmpy(fmu, scene, tmp_path, rel_tol=rel_tol, solver="CVode")
     ref, rnames, rtab = reference_on_grid(name, scene)
     if scene.get("mode", "trace") == "statistics":
         checks = S.compare_statistics(scene, fnames, ftab, rnames, rtab)
