@@ -11,7 +11,10 @@
  * free), error paths (unknown value reference, unknown log category, wrong time, bogus and
  * freed FMU-state pointers, truncated and corrupted blobs, calls in the wrong state), recovery
  * with fmi2SetFMUstate and fmi2Reset, terminate and free, including an instance freed with FMU
- * states still allocated. Exits 0 if every check passed. The logger is a real C-variadic
+ * states still allocated. Then Model Exchange (explicit Euler with the events the indicators
+ * show, FMU states in continuous-time mode, bad sizes and values) and FMI 3.0 (Co-Simulation
+ * with time and an event indicator read as variables, FMU states; Model Exchange steps) through
+ * the same library. Exits 0 if every check passed. The FMI 2.0 logger is a real C-variadic
  * function that formats the message printf-style (so the FMU's %% escaping is exercised).
  *
  * The value references are those of modelDescription/variables.toml; tools/reliability.sh
@@ -25,6 +28,7 @@
 #include <string.h>
 
 #include "fmi2FunctionTypes.h"
+#include "fmi3FunctionTypes.h"
 
 enum {
     VR_CHI = 21, VR_C_LOAD = 24, VR_W_A_START = 27, VR_W_B_START = 28, VR_TAU_A = 40,
@@ -85,6 +89,16 @@ struct api {
     fmi2GetRealStatusTYPE *GetRealStatus;
     fmi2GetStatusTYPE *GetStatus;
     fmi2CancelStepTYPE *CancelStep;
+    fmi2EnterEventModeTYPE *EnterEventMode;
+    fmi2NewDiscreteStatesTYPE *NewDiscreteStates;
+    fmi2EnterContinuousTimeModeTYPE *EnterContinuousTimeMode;
+    fmi2CompletedIntegratorStepTYPE *CompletedIntegratorStep;
+    fmi2SetTimeTYPE *SetTime;
+    fmi2SetContinuousStatesTYPE *SetContinuousStates;
+    fmi2GetDerivativesTYPE *GetDerivatives;
+    fmi2GetEventIndicatorsTYPE *GetEventIndicators;
+    fmi2GetContinuousStatesTYPE *GetContinuousStates;
+    fmi2GetNominalsOfContinuousStatesTYPE *GetNominalsOfContinuousStates;
 };
 
 static void *sym(void *lib, const char *name) {
@@ -117,6 +131,164 @@ static char *serialize(const struct api *f, fmi2Component c, fmi2FMUstate s, siz
     return buf;
 }
 
+
+#define NX 8
+#define NZ 32
+
+/* Model Exchange: explicit Euler (2 ms in steps of 1e-6 s, stable on the damped paper rig),
+ * with event mode whenever an indicator changes sign, FMU states in continuous-time mode, and
+ * bad sizes and values on a second instance. */
+static void model_exchange(const struct api *f, const fmi2CallbackFunctions *cb, const char *guid) {
+    fmi2Component c = f->Instantiate("me", fmi2ModelExchange, guid, "", cb, fmi2False, fmi2False);
+    fmi2Component bad = f->Instantiate("me-bad", fmi2ModelExchange, guid, "", cb, fmi2False, fmi2False);
+    fmi2EventInfo info;
+    fmi2Real x[NX], dx[NX], z[NZ], z0[NZ], nom[NX], y[N_OUT], t = 0.0, h = 1e-6;
+    fmi2Boolean enter = fmi2False, stop = fmi2False;
+    fmi2FMUstate s = NULL, s2 = NULL;
+    long k, events = 0;
+    int i;
+    char *blob;
+    size_t n = 0;
+    CHECK(c && bad, "instantiate Model Exchange");
+    if (!c || !bad) return;
+    init_paper_scene(f, c);
+    CHECK(f->NewDiscreteStates(c, &info) == fmi2OK && !info.valuesOfContinuousStatesChanged, "initial event");
+    CHECK(f->EnterContinuousTimeMode(c) == fmi2OK, "continuous-time mode");
+    CHECK(f->GetContinuousStates(c, x, NX) == fmi2OK, "states");
+    CHECK(f->GetNominalsOfContinuousStates(c, nom, NX) == fmi2OK, "nominals");
+    CHECK(f->GetEventIndicators(c, z0, NZ) == fmi2OK, "indicators");
+    for (k = 0; k < 2000; k++) {
+        CHECK(f->GetDerivatives(c, dx, NX) == fmi2OK, "derivatives at t = %g", t);
+        for (i = 0; i < NX; i++) x[i] += h * dx[i];
+        t += h;
+        CHECK(f->SetTime(c, t) == fmi2OK, "time");
+        CHECK(f->SetContinuousStates(c, x, NX) == fmi2OK, "set states");
+        CHECK(f->GetEventIndicators(c, z, NZ) == fmi2OK, "indicators");
+        for (i = 0; i < NZ; i++) {
+            if ((z[i] > 0) != (z0[i] > 0)) break;
+        }
+        CHECK(f->CompletedIntegratorStep(c, fmi2True, &enter, &stop) == fmi2OK && !stop, "completed step");
+        if (i < NZ || enter) {
+            events++;
+            CHECK(f->EnterEventMode(c) == fmi2OK, "event mode");
+            CHECK(f->NewDiscreteStates(c, &info) == fmi2OK, "event at t = %g", t);
+            CHECK(f->EnterContinuousTimeMode(c) == fmi2OK, "back to continuous time");
+            if (info.valuesOfContinuousStatesChanged) f->GetContinuousStates(c, x, NX);
+            f->GetEventIndicators(c, z, NZ);
+        }
+        memcpy(z0, z, sizeof z);
+        CHECK(f->GetReal(c, outputs, N_OUT, y) == fmi2OK, "outputs");
+        for (i = 0; i < (int)N_OUT; i++) CHECK(isfinite(y[i]), "output %u is %g", outputs[i], y[i]);
+        if (k == 1000) {
+            CHECK(f->GetFMUstate(c, &s) == fmi2OK, "get state");
+            blob = serialize(f, c, s, &n);
+            CHECK(f->DeSerializeFMUstate(c, blob, n, &s2) == fmi2OK, "deserialize");
+            CHECK(f->SetFMUstate(c, s2) == fmi2OK, "set the deserialized state");
+            free(blob);
+            CHECK(f->FreeFMUstate(c, &s2) == fmi2OK, "free");
+        }
+    }
+    CHECK(events > 0, "no event in 2 ms");
+    CHECK(f->Terminate(c) == fmi2OK, "terminate");
+    f->FreeFMUstate(c, &s);
+    f->FreeInstance(c);
+
+    init_paper_scene(f, bad);
+    CHECK(f->DoStep(bad, 0.0, 1e-4, fmi2True) == fmi2Error, "fmi2DoStep in Model Exchange");
+    CHECK(f->Reset(bad) == fmi2OK, "reset");
+    init_paper_scene(f, bad);
+    f->NewDiscreteStates(bad, &info);
+    f->EnterContinuousTimeMode(bad);
+    CHECK(f->GetContinuousStates(bad, x, NX - 1) == fmi2Error, "wrong nx");
+    CHECK(f->Reset(bad) == fmi2OK, "reset");
+    init_paper_scene(f, bad);
+    f->NewDiscreteStates(bad, &info);
+    f->EnterContinuousTimeMode(bad);
+    x[1] = NAN;
+    CHECK(f->SetContinuousStates(bad, x, NX) == fmi2Error, "NaN state");
+    f->FreeInstance(bad);
+}
+
+static void logger3(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message) {
+    (void)env;
+    messages++;
+    if (status >= fmi3Discard) error_messages++;
+    if (verbose || status == fmi3Fatal) fprintf(stderr, "[fmi3 %d %s] %s\n", (int)status, category, message);
+}
+
+/* FMI 3.0 through the same library: Co-Simulation with time and an event indicator read as
+ * variables and an FMU state round trip, then Model Exchange steps. */
+static void fmi3(void *lib, const char *token) {
+#define LOAD3(name) fmi3##name##TYPE *name = (fmi3##name##TYPE *)sym(lib, "fmi3" #name)
+    LOAD3(InstantiateCoSimulation); LOAD3(InstantiateModelExchange); LOAD3(FreeInstance);
+    LOAD3(EnterInitializationMode); LOAD3(ExitInitializationMode); LOAD3(SetFloat64);
+    LOAD3(GetFloat64); LOAD3(DoStep); LOAD3(Terminate); LOAD3(GetFMUState); LOAD3(SetFMUState);
+    LOAD3(FreeFMUState); LOAD3(SerializedFMUStateSize); LOAD3(SerializeFMUState);
+    LOAD3(DeserializeFMUState); LOAD3(UpdateDiscreteStates); LOAD3(EnterContinuousTimeMode);
+    LOAD3(GetNumberOfContinuousStates); LOAD3(GetContinuousStateDerivatives);
+    LOAD3(GetContinuousStates); LOAD3(SetContinuousStates); LOAD3(SetTime);
+    LOAD3(CompletedIntegratorStep); LOAD3(GetVersion);
+    const fmi3ValueReference vr[] = {VR_TAU_A, VR_C_LOAD, VR_W_A_START, VR_W_B_START, VR_CHI};
+    const fmi3Float64 v[] = {100.0, 2.0, 100.0, 100.0 / 1.5, 10.0};
+    const fmi3ValueReference read[] = {0, VR_DTE, 1001};
+    fmi3Float64 y[3], t = 0.0, h = 1e-4, last = 0.0, x[NX], dx[NX];
+    fmi3Boolean event = fmi3False, stop = fmi3False, early = fmi3False, b[4];
+    fmi3FMUState s = NULL, s2 = NULL;
+    fmi3Byte *blob;
+    size_t n = 0, nx = 0;
+    long k;
+    int i;
+    fmi3Instance c;
+    CHECK(strcmp(GetVersion(), "3.0") == 0, "fmi3 version");
+    c = InstantiateCoSimulation("cs3", token, "", fmi3False, fmi3False, fmi3False, fmi3False, NULL, 0,
+                                NULL, logger3, NULL);
+    CHECK(c != NULL, "fmi3 Co-Simulation");
+    if (!c) return;
+    CHECK(SetFloat64(c, vr, 5, v, 5) == fmi3OK, "start values");
+    CHECK(EnterInitializationMode(c, fmi3True, 1e-6, 0.0, fmi3False, 0.0) == fmi3OK, "initialization");
+    CHECK(ExitInitializationMode(c) == fmi3OK, "exit initialization");
+    for (k = 0; k < 500; k++, t += h) {
+        CHECK(DoStep(c, t, h, fmi3True, &event, &stop, &early, &last) == fmi3OK && !event && !stop && !early,
+              "fmi3DoStep at %g", t);
+        CHECK(GetFloat64(c, read, 3, y, 3) == fmi3OK && y[0] == last && isfinite(y[1]) && isfinite(y[2]),
+              "time, dte and an indicator");
+        if (k == 250) {
+            CHECK(GetFMUState(c, &s) == fmi3OK, "fmi3 state");
+            CHECK(SerializedFMUStateSize(c, s, &n) == fmi3OK, "size");
+            blob = malloc(n);
+            CHECK(SerializeFMUState(c, s, blob, n) == fmi3OK, "serialize");
+            CHECK(DeserializeFMUState(c, blob, n, &s2) == fmi3OK && SetFMUState(c, s2) == fmi3OK, "round trip");
+            free(blob);
+            FreeFMUState(c, &s2);
+        }
+    }
+    CHECK(GetFloat64(c, read, 3, y, 2) == fmi3Error, "nValues that do not match");
+    FreeFMUState(c, &s);
+    FreeInstance(c);
+
+    c = InstantiateModelExchange("me3", token, "", fmi3False, fmi3False, NULL, logger3);
+    CHECK(c != NULL, "fmi3 Model Exchange");
+    if (!c) return;
+    CHECK(SetFloat64(c, vr, 5, v, 5) == fmi3OK, "start values");
+    CHECK(EnterInitializationMode(c, fmi3False, 0.0, 0.0, fmi3False, 0.0) == fmi3OK, "initialization");
+    CHECK(ExitInitializationMode(c) == fmi3OK, "exit initialization");
+    CHECK(UpdateDiscreteStates(c, &b[0], &b[1], &b[2], &b[3], &event, &last) == fmi3OK, "update");
+    CHECK(EnterContinuousTimeMode(c) == fmi3OK, "continuous time");
+    CHECK(GetNumberOfContinuousStates(c, &nx) == fmi3OK && nx == NX, "number of states");
+    CHECK(GetContinuousStates(c, x, NX) == fmi3OK, "states");
+    t = 0.0;
+    for (k = 0; k < 200; k++) {
+        CHECK(GetContinuousStateDerivatives(c, dx, NX) == fmi3OK, "derivatives");
+        for (i = 0; i < NX; i++) x[i] += 1e-6 * dx[i];
+        t += 1e-6;
+        CHECK(SetTime(c, t) == fmi3OK && SetContinuousStates(c, x, NX) == fmi3OK, "set point");
+        CHECK(CompletedIntegratorStep(c, fmi3True, &event, &stop) == fmi3OK, "completed step");
+    }
+    CHECK(Terminate(c) == fmi3OK, "terminate");
+    FreeInstance(c);
+#undef LOAD3
+}
+
 int main(int argc, char **argv) {
     struct api f;
     void *lib;
@@ -146,13 +318,16 @@ int main(int argc, char **argv) {
     LOAD(GetInteger); LOAD(GetFMUstate); LOAD(SetFMUstate); LOAD(FreeFMUstate);
     LOAD(SerializedFMUstateSize); LOAD(SerializeFMUstate); LOAD(DeSerializeFMUstate);
     LOAD(DoStep); LOAD(GetRealStatus); LOAD(GetStatus); LOAD(CancelStep);
+    LOAD(EnterEventMode); LOAD(NewDiscreteStates); LOAD(EnterContinuousTimeMode);
+    LOAD(CompletedIntegratorStep); LOAD(SetTime); LOAD(SetContinuousStates); LOAD(GetDerivatives);
+    LOAD(GetEventIndicators); LOAD(GetContinuousStates); LOAD(GetNominalsOfContinuousStates);
 
     CHECK(strcmp(f.GetVersion(), "2.0") == 0, "version");
     CHECK(strcmp(f.GetTypesPlatform(), "default") == 0, "types platform");
 
     /* Failed instantiations. */
     CHECK(f.Instantiate("x", fmi2CoSimulation, "{wrong}", "", &cb, fmi2False, fmi2False) == NULL, "wrong GUID");
-    CHECK(f.Instantiate("x", fmi2ModelExchange, argv[2], "", &cb, fmi2False, fmi2False) == NULL, "ME");
+    CHECK(f.Instantiate("x", (fmi2Type)7, argv[2], "", &cb, fmi2False, fmi2False) == NULL, "bad fmuType");
     CHECK(f.Instantiate(NULL, fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False) == NULL, "no name");
 
     c = f.Instantiate("a", fmi2CoSimulation, argv[2], "file:///tmp", &cb, fmi2False, fmi2True);
@@ -261,6 +436,9 @@ int main(int argc, char **argv) {
         f.FreeInstance(c3);
     }
     f.FreeInstance(NULL);
+
+    model_exchange(&f, &cb, argv[2]);
+    fmi3(lib, argv[2]);
 
     dlclose(lib);
     printf("fmi_memcheck: %ld steps, %ld window checks, %ld log messages (%ld errors/discards), %d failures\n",
