@@ -35,7 +35,7 @@ pub unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>
     (i.magic == MAGIC).then_some(i)
 }
 
-pub fn with<S: Slave>(
+pub unsafe fn with<S: Slave>(
     c: Component,
     func: &str,
     states: u32,

@@ -14,7 +14,7 @@ use crate::{Boolean, Component, EventInfo, EventUpdate, Slave, Status};
 
 /// `ffi::with` for a Model Exchange function: a Co-Simulation-only model, or a Co-Simulation
 /// instance, gets fmi2Error.
-pub fn with_me<S: Slave>(
+pub unsafe fn with_me<S: Slave>(
     c: Component,
     func: &str,
     states: u32,

@@ -106,6 +106,48 @@ impl Var {
         ident(&self.name)
     }
 
+    /// name, valueReference, description, causality, variability and initial: the same
+    /// attributes in FMI 2.0 (on ScalarVariable) and 3.0.
+    fn identity_attrs(&self) -> Vec<(&'static str, String)> {
+        let mut attrs = vec![
+            ("name", self.name.clone()),
+            ("valueReference", self.vr.to_string()),
+            ("description", self.description.clone()),
+            ("causality", self.causality.clone()),
+            ("variability", self.variability.clone()),
+        ];
+        match self.causality.as_str() {
+            "parameter" => attrs.push(("initial", "exact".into())),
+            "calculatedParameter" | "output" | "local" => {
+                attrs.push(("initial", "calculated".into()))
+            }
+            _ => {}
+        }
+        attrs
+    }
+
+    /// unit, displayUnit, min and max, where the table gives them.
+    fn value_attrs(&self) -> Vec<(&'static str, String)> {
+        let mut attrs = Vec::new();
+        if let Some(u) = &self.unit {
+            attrs.push(("unit", u.clone()));
+        }
+        if let Some(d) = &self.display_unit {
+            attrs.push(("displayUnit", d.clone()));
+        }
+        for (k, bound) in [("min", self.min), ("max", self.max)] {
+            if let Some(b) = bound {
+                let text = if self.ty == "Integer" {
+                    (b as i64).to_string()
+                } else {
+                    format_real(b)
+                };
+                attrs.push((k, text));
+            }
+        }
+        attrs
+    }
+
     /// The start value as FMI text ("1e-6", "true", "20").
     fn start_text(&self) -> Option<String> {
         self.start.as_ref().map(|v| match v {
@@ -300,6 +342,29 @@ fn elem<'a>(name: &'a str, attrs: &[(&str, String)]) -> BytesStart<'a> {
     e
 }
 
+/// The attributes of fmiModelDescription that both versions have (the GUID is FMI 3.0's
+/// instantiationToken).
+fn header_attrs(
+    t: &Table,
+    version: &str,
+    fmi_version: &str,
+    guid_key: &'static str,
+) -> Vec<(&'static str, String)> {
+    vec![
+        ("fmiVersion", fmi_version.into()),
+        ("modelName", t.model.name.clone()),
+        (guid_key, guid(t, version)),
+        ("description", t.model.description.clone()),
+        ("author", t.model.author.clone()),
+        ("version", version.into()),
+        (
+            "generationTool",
+            "SpurGearMesh modelDescription generator".into(),
+        ),
+        ("variableNamingConvention", "flat".into()),
+    ]
+}
+
 /// UnitDefinitions, LogCategories and DefaultExperiment: the same in FMI 2.0 and 3.0.
 fn units_categories_experiment(t: &Table, put: &mut dyn FnMut(Event)) {
     put(Event::Start(BytesStart::new("UnitDefinitions")));
@@ -347,30 +412,15 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
     put(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
-    put(Event::Start(elem(
-        "fmiModelDescription",
-        &[
-            ("fmiVersion", "2.0".into()),
-            ("modelName", t.model.name.clone()),
-            ("guid", guid(t, version)),
-            ("description", t.model.description.clone()),
-            ("author", t.model.author.clone()),
-            ("version", version.into()),
-            (
-                "generationTool",
-                "SpurGearMesh modelDescription generator".into(),
-            ),
-            ("variableNamingConvention", "flat".into()),
-            (
-                "numberOfEventIndicators",
-                t.model
-                    .model_exchange
-                    .as_ref()
-                    .map_or(0, |m| m.event_indicators.len())
-                    .to_string(),
-            ),
-        ],
-    )));
+    let mut header = header_attrs(t, version, "2.0", "guid");
+    let indicators = t.model.model_exchange.as_ref();
+    header.push((
+        "numberOfEventIndicators",
+        indicators
+            .map_or(0, |m| m.event_indicators.len())
+            .to_string(),
+    ));
+    put(Event::Start(elem("fmiModelDescription", &header)));
     if t.model.model_exchange.is_some() {
         put(Event::Empty(elem(
             "ModelExchange",
@@ -414,21 +464,7 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
             " index {} ",
             i + 1
         ))));
-        let mut attrs = vec![
-            ("name", v.name.clone()),
-            ("valueReference", v.vr.to_string()),
-            ("description", v.description.clone()),
-            ("causality", v.causality.clone()),
-            ("variability", v.variability.clone()),
-        ];
-        match v.causality.as_str() {
-            "parameter" => attrs.push(("initial", "exact".into())),
-            "calculatedParameter" | "output" | "local" => {
-                attrs.push(("initial", "calculated".into()))
-            }
-            _ => {}
-        }
-        put(Event::Start(elem("ScalarVariable", &attrs)));
+        put(Event::Start(elem("ScalarVariable", &v.identity_attrs())));
         let mut tattrs = Vec::new();
         if let Some(s) = v.start_text() {
             tattrs.push(("start", s));
@@ -436,22 +472,7 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         if let Some(of) = &v.derivative_of {
             tattrs.push(("derivative", index_of_name(t, of).to_string()));
         }
-        if let Some(u) = &v.unit {
-            tattrs.push(("unit", u.clone()));
-        }
-        if let Some(d) = &v.display_unit {
-            tattrs.push(("displayUnit", d.clone()));
-        }
-        for (k, bound) in [("min", v.min), ("max", v.max)] {
-            if let Some(b) = bound {
-                let text = if v.ty == "Integer" {
-                    (b as i64).to_string()
-                } else {
-                    format_real(b)
-                };
-                tattrs.push((k, text));
-            }
-        }
+        tattrs.extend(v.value_attrs());
         put(Event::Empty(elem(&v.ty, &tattrs)));
         put(Event::End(BytesEnd::new("ScalarVariable")));
     }
@@ -519,22 +540,8 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
     put(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
-    put(Event::Start(elem(
-        "fmiModelDescription",
-        &[
-            ("fmiVersion", "3.0".into()),
-            ("modelName", t.model.name.clone()),
-            ("instantiationToken", guid(t, version)),
-            ("description", t.model.description.clone()),
-            ("author", t.model.author.clone()),
-            ("version", version.into()),
-            (
-                "generationTool",
-                "SpurGearMesh modelDescription generator".into(),
-            ),
-            ("variableNamingConvention", "flat".into()),
-        ],
-    )));
+    let header = header_attrs(t, version, "3.0", "instantiationToken");
+    put(Event::Start(elem("fmiModelDescription", &header)));
     let common = [
         ("modelIdentifier", t.model.name.clone()),
         ("canGetAndSetFMUState", "true".into()),
@@ -566,36 +573,8 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
     )));
     let vr_of = |name: &str| t.vars.iter().find(|v| v.name == name).expect("checked").vr;
     for v in &t.vars {
-        let mut attrs = vec![
-            ("name", v.name.clone()),
-            ("valueReference", v.vr.to_string()),
-            ("description", v.description.clone()),
-            ("causality", v.causality.clone()),
-            ("variability", v.variability.clone()),
-        ];
-        match v.causality.as_str() {
-            "parameter" => attrs.push(("initial", "exact".into())),
-            "calculatedParameter" | "output" | "local" => {
-                attrs.push(("initial", "calculated".into()))
-            }
-            _ => {}
-        }
-        if let Some(u) = &v.unit {
-            attrs.push(("unit", u.clone()));
-        }
-        if let Some(d) = &v.display_unit {
-            attrs.push(("displayUnit", d.clone()));
-        }
-        for (k, bound) in [("min", v.min), ("max", v.max)] {
-            if let Some(b) = bound {
-                let text = if v.ty == "Integer" {
-                    (b as i64).to_string()
-                } else {
-                    format_real(b)
-                };
-                attrs.push((k, text));
-            }
-        }
+        let mut attrs = v.identity_attrs();
+        attrs.extend(v.value_attrs());
         let start = v.start_text();
         if v.ty != "String" {
             if let Some(s) = &start {
