@@ -50,12 +50,6 @@ impl Exchange {
         }
     }
 
-    pub fn states(&self, x: &mut [f64]) {
-        for (xj, &i) in x.iter_mut().zip(&ME_STATE) {
-            *xj = self.y[i];
-        }
-    }
-
     pub fn set_states(&mut self, x: &[f64]) {
         for (&xj, &i) in x.iter().zip(&ME_STATE) {
             self.y[i] = xj;
@@ -96,6 +90,9 @@ impl Exchange {
     /// lock that the new loads would make pull is released at once, which may move the state
     /// (two-sided contact); then the master is asked for an event (`take_jump`).
     pub fn set_loads(&mut self, loads: Loads) {
+        if loads == self.mesh.loads {
+            return;
+        }
         let before = self.y;
         self.mesh.set_loads(loads, &mut self.y);
         self.jumped |= self.y != before;
@@ -174,14 +171,14 @@ impl Exchange {
         }
         let last = (0..self.mesh.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
         Err(EventError::NoSettle {
-            t: self.t,
             last: format!("{:?}", last.map(EventFn::from_index)),
         })
     }
 }
 
-/// Margins are lengths in metres or dimensionless factors of order 1, and the rounding of a
-/// handled switch leaves them within about 1e-16 of 0: this separates that from a crossing.
+/// Margins with a rate are lengths in metres or dimensionless factors of order 1, and the
+/// rounding of a handled switch leaves them within about 1e-16 of 0: this separates that from
+/// a crossing.
 const ROUNDING: f64 = 1e-12;
 
 /// Whether an event function with this margin and rate has crossed (`handle_events`). The
@@ -195,8 +192,8 @@ pub enum EventError {
     #[error(transparent)]
     Law(LawOutOfRange),
     #[error(
-        "at t = {t} s the events did not settle after {MAX_EVENTS_PER_INSTANT} at one instant \
-         (still crossed: {last})"
+        "the events did not settle after {MAX_EVENTS_PER_INSTANT} at one instant (still crossed: \
+         {last})"
     )]
-    NoSettle { t: f64, last: String },
+    NoSettle { last: String },
 }

@@ -71,6 +71,15 @@ impl Snapshot {
         }
     }
 
+    /// The mesh and the state at the current time, if there is a run (of either interface).
+    fn current(&self) -> Option<(&Mesh, State)> {
+        match (&self.me, &self.sim) {
+            (Some(ex), _) => Some((&ex.mesh, ex.y)),
+            (None, Some(sim)) => Some((&sim.mesh, sim.driver.state())),
+            (None, None) => None,
+        }
+    }
+
     fn active_ramp(&self) -> Option<Ramp> {
         self.ramp.is_active().then_some(self.ramp)
     }
@@ -542,16 +551,12 @@ impl SpurGearMesh {
             .ok_or_else(|| error("the instance has no Model Exchange state".into()))
     }
 
-    /// The mesh and the state at the current time, of either interface.
+    /// The mesh and the state at the current time, of either interface, built if need be.
     fn point(&mut self) -> Result<(&Mesh, State), Failure> {
         if self.snap.me.is_none() {
             self.build()?;
         }
-        Ok(match (&self.snap.me, &self.snap.sim) {
-            (Some(ex), _) => (&ex.mesh, ex.y),
-            (None, Some(sim)) => (&sim.mesh, sim.driver.state()),
-            (None, None) => unreachable!("built above"),
-        })
+        Ok(self.snap.current().expect("built above"))
     }
 
     /// The locals (the states that are not outputs, the derivatives) at the current time; a
@@ -599,11 +604,7 @@ impl SpurGearMesh {
     fn energy_outputs(&mut self) -> Result<&Outputs, Failure> {
         self.outputs()?;
         if !self.energy_fresh {
-            let (mesh, y) = match (&self.snap.me, &self.snap.sim) {
-                (Some(ex), _) => (&ex.mesh, ex.y),
-                (None, Some(sim)) => (&sim.mesh, sim.driver.state()),
-                (None, None) => unreachable!("built by outputs()"),
-            };
+            let (mesh, y) = self.snap.current().expect("built by outputs()");
             outputs::write_energy(mesh, &y, &mut self.outputs).map_err(|e| error(e.to_string()))?;
             let o = &self.outputs;
             for (name, x) in [
