@@ -27,6 +27,7 @@ use std::os::raw::{c_char, c_int};
 /// More values than any master can mean; guards against garbage counts.
 const MAX_VALUES: usize = 1 << 20;
 
+#[inline]
 pub unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>> {
     if c.is_null() {
         return None;
@@ -35,6 +36,7 @@ pub unsafe fn instance<'a, S: Slave>(c: Component) -> Option<&'a mut Instance<S>
     (i.magic == MAGIC).then_some(i)
 }
 
+#[inline]
 pub unsafe fn with<S: Slave>(
     c: Component,
     func: &str,

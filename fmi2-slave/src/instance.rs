@@ -142,12 +142,8 @@ impl<S: Slave> Instance<S> {
         states: u32,
         body: impl FnOnce(&mut Instance<S>) -> CallResult,
     ) -> Status {
-        let func = if self.fmi3 {
-            fmi3_name(func)
-        } else {
-            func.into()
-        };
         if states & self.state as u32 == 0 {
+            let func = self.name(func);
             self.log.log_status(
                 Status::Error,
                 &format!("{func}: not allowed in state {:?}", self.state),
@@ -162,6 +158,7 @@ impl<S: Slave> Instance<S> {
                 error("internal error (panic caught at the C boundary); reset the instance".into())
             }
         };
+        let func = self.name(func);
         self.log
             .log_status(failure.status, &format!("{func}: {}", failure.message));
         match failure.status {
@@ -170,6 +167,16 @@ impl<S: Slave> Instance<S> {
             _ => {}
         }
         failure.status
+    }
+
+    /// The function's name as the master called it (messages only, so off the hot path).
+    #[cold]
+    fn name<'a>(&self, func: &'a str) -> std::borrow::Cow<'a, str> {
+        if self.fmi3 {
+            fmi3_name(func)
+        } else {
+            func.into()
+        }
     }
 
     pub fn reset(&mut self) {

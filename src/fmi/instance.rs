@@ -143,6 +143,7 @@ impl Slave for SpurGearMesh {
             .map_or_else(Vec::new, |s| s.mesh.geo.warnings.clone())
     }
 
+    #[inline]
     fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure> {
         let v = lookup(vr, VarType::Real)?;
         self.value(
@@ -155,6 +156,7 @@ impl Slave for SpurGearMesh {
         )
     }
 
+    #[inline]
     fn get_integer(&mut self, vr: ValueReference) -> Result<i32, Failure> {
         let v = lookup(vr, VarType::Integer)?;
         self.value(
@@ -561,6 +563,8 @@ impl SpurGearMesh {
 
     /// The locals (the states that are not outputs, the derivatives) at the current time; a
     /// non-finite one is an error naming it, as for the outputs.
+    #[cold]
+    #[inline(never)]
     fn locals(&mut self) -> Result<crate::variables::Locals, Failure> {
         let t = self.time();
         let (mesh, y) = self.point()?;
@@ -639,6 +643,7 @@ impl SpurGearMesh {
             Causality::Output if outputs::is_energy(v) => output(self.energy_outputs()?),
             Causality::Output => output(self.outputs()?),
             Causality::CalculatedParameter => calc(&outputs::calculated(self.point()?.0)),
+            // Rare (Model Exchange's states and derivatives): out of line.
             Causality::Local => local(&self.locals()?),
         };
         Ok(got.expect("the generated table gives every variable a getter of its type"))
