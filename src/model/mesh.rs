@@ -1095,6 +1095,11 @@ impl Mesh {
             self.flank_delta(Flank::Forward, y),
             self.flank_delta(Flank::Backward, y),
         ];
+        if self.dev.is_none() && !self.rigid() {
+            // The common case's slot-by-slot path; the rates it also writes are not wanted.
+            let mut rates = [0.0; N_EVENTS];
+            return self.base_margins_and_rates(y, &[0.0; NY], d, 0.0, out, &mut rates);
+        }
         let n = self.n_event_fns();
         out[n..].fill(1.0);
         for (i, m) in out[..n].iter_mut().enumerate() {
@@ -1128,6 +1133,9 @@ impl Mesh {
             self.flank_delta(Flank::Backward, y),
         ];
         let travel = self.geo.r_ab * dy[THETA_A];
+        if self.dev.is_none() && !self.rigid() {
+            return self.base_margins_and_rates(y, dy, d, travel, margins, rates);
+        }
         let n = self.n_event_fns();
         margins[n..].fill(1.0);
         rates[n..].fill(0.0);
@@ -1159,6 +1167,62 @@ impl Mesh {
             } else {
                 (-value, -rate)
             };
+        }
+    }
+
+    /// `event_margins_and_rates` of the compliant mesh without shape deviations, the common
+    /// case, slot by slot: the same values and rates with the contact point computed once per
+    /// slot and no dispatch per event (the driver evaluates these at every step).
+    #[inline]
+    fn base_margins_and_rates(
+        &self,
+        y: &State,
+        dy: &State,
+        d: [(f64, f64); 2],
+        travel: f64,
+        margins: &mut [f64; N_EVENTS],
+        rates: &mut [f64; N_EVENTS],
+    ) {
+        let g = &self.geo;
+        let low = g.s_window_low();
+        margins[contact::BASE_EVENTS..].fill(1.0);
+        rates[contact::BASE_EVENTS..].fill(0.0);
+        // An active function signed as its margin; an inactive one reads +1 with rate 0.
+        let mut put = |i: usize, active: Option<(f64, f64)>| {
+            (margins[i], rates[i]) = match active {
+                Some((value, rate)) if self.sign[i] => (value, rate),
+                Some((value, rate)) => (-value, -rate),
+                None => (1.0, 0.0),
+            };
+        };
+        for k in 0..SLOTS {
+            let i = EventFn::Top(k).index();
+            if !self.present[k] {
+                (i..i + 3).for_each(|j| put(j, None));
+                continue;
+            }
+            let f = slot_flank(k);
+            let (delta, rate) = d[f as usize];
+            let s = self.s_contact(k, y);
+            put(i, Some((g.s_b - s, -f.dir() * travel)));
+            put(i + 1, Some((s - low, f.dir() * travel)));
+            let gate_rate = f.dir() * travel - if delta > 0.0 { rate } else { 0.0 };
+            put(i + 2, Some((s - delta.max(0.0) - g.s_a, gate_rate)));
+        }
+        for f in [Flank::Forward, Flank::Backward] {
+            let (pen, rel) = (EventFn::Pen(f).index(), EventFn::Rel(f).index());
+            let present = self.flank_present(f);
+            let (delta, rate) = d[f as usize];
+            put(pen, present.then_some((delta, rate)));
+            let chi = self.loads.chi;
+            let releasing = present && self.damped() && self.sign[pen];
+            put(
+                rel,
+                releasing.then(|| {
+                    let rel_rate = chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S]);
+                    (1.0 + chi * rate, rel_rate)
+                }),
+            );
         }
     }
 
