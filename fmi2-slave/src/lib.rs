@@ -1,13 +1,14 @@
-//! The FMI 2.0 Co-Simulation layer of this repository's FMUs, written once.
+//! The FMI 2.0 layer of this repository's FMUs (Co-Simulation, and Model Exchange for a model
+//! that has it), written once; fmi3-slave builds FMI 3.0 on it.
 //!
 //! A model implements [`Slave`] (its variables, initialization, stepping, and the payload of
 //! its FMU states) and invokes [`export_fmi2!`] with its type; this crate does the rest:
 //!
 //! - the C types of the standard (this module);
 //! - `logging`: the master's logger, filtered by the model's log categories;
-//! - `instance`: [`Instance`], the FMI 2.0 state machine (Co-Simulation and Model Exchange) in one place (state
-//!   checks, panic guard, a failure logged and turned into a state change) and the FMU states
-//!   an instance hands out;
+//! - `instance`: [`Instance`], the FMI 2.0 state machine of Co-Simulation and Model Exchange
+//!   in one place (state checks, panic guard, a failure logged and turned into a state change)
+//!   and the FMU states an instance hands out;
 //! - `fmu_state`: the serialized FMU state: an envelope (magic, format version, GUID, length,
 //!   checksum) around the model's payload, and the reader and writer of payloads;
 //! - `ffi`: the bodies of the 44 fmi2* functions, generic over the model;
