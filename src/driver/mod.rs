@@ -774,13 +774,17 @@ impl<S: System + Clone + 'static> Driver<S> {
             &mut end,
             &mut end_rate,
         );
-        let (start, start_rate) = match self.start.0.take() {
-            Some((t, m, r)) if t == t0 => (m, r),
+        // The margins at t0: the last step's end, read in place (they are 2 x 32 reals), or
+        // computed anew after a restart.
+        let fresh;
+        let (start, start_rate) = match &self.start.0 {
+            Some((t, m, r)) if *t == t0 => (m, r),
             _ => {
                 let (mut m, mut r) = (S::Margins::zeros(), S::Margins::zeros());
                 let y0 = self.method.interpolate(t0);
                 sys.event_margins_and_rates(&y0, &self.method.derivative(t0), &mut m, &mut r);
-                (m, r)
+                fresh = (m, r);
+                (&fresh.0, &fresh.1)
             }
         };
         // At t0 a margin is >= 0 except when two events coincide and the other one was just
@@ -839,9 +843,8 @@ impl<S: System + Clone + 'static> Driver<S> {
                 (a, fa) = (t, m);
             }
         }
-        if best.is_none() {
-            self.start = MarginCache(Some((t1, end, end_rate)));
-        }
+        // After an event the step ends there: the cached end does not start the next one.
+        self.start = MarginCache(best.is_none().then_some((t1, end, end_rate)));
         best
     }
 
