@@ -862,8 +862,19 @@ impl Mesh {
     /// Accelerations of A, B and the slider under a mesh load; `external` scales the torques,
     /// housing and slider forces (1 for the real motion, 0 for a unit constraint force alone).
     fn accelerations(&self, y: &State, m: &MeshLoad, external: f64) -> (f64, f64, f64) {
-        let l = &self.loads_at(y);
-        let w_b = self.w_b(y);
+        self.accelerations_given(y, &self.loads_at(y), self.w_b(y), m, external)
+    }
+
+    /// `accelerations` with the loads and w_B at hand.
+    #[inline(always)]
+    fn accelerations_given(
+        &self,
+        y: &State,
+        l: &Loads,
+        w_b: f64,
+        m: &MeshLoad,
+        external: f64,
+    ) -> (f64, f64, f64) {
         let dw_a = (external * l.tau_a + m.tq_a) / self.j_a + external * l.alpha_housing;
         let acc_b = (external * (l.tau_b - l.c_load * w_b) + m.tq_b) / self.j_b
             - external * l.alpha_housing;
@@ -878,11 +889,12 @@ impl Mesh {
 
     /// The equations of motion under a mesh load (spec §5, rig-and-modes §3-§4). A locked
     /// rigid flank holds its penetration exactly: no drift away from the constraint.
+    #[inline]
     fn motion(&self, y: &State, load: &MeshLoad, locked: Option<Flank>, dy: &mut State) {
         let g = &self.geo;
         let l = &self.loads_at(y);
         let (w_a, w_b) = (y[W_A], self.w_b(y));
-        let (dw_a, acc_b, acc_x) = self.accelerations(y, load, 1.0);
+        let (dw_a, acc_b, acc_x) = self.accelerations_given(y, l, w_b, load, 1.0);
         dy[THETA_A] = w_a;
         dy[DTE] = g.r_ab * w_a - g.r_bb * w_b;
         dy[W_A] = dw_a;
