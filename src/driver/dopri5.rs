@@ -50,10 +50,8 @@ pub struct Dopri5<Y> {
     pub facold: f64,
 }
 
-/// y + h sum(a k) over the first n components (the rest stay as in y). The number of terms is
-/// a constant, so the inner sum is unrolled (the same operations in the same order).
-#[inline]
-fn axpy<Y: Vector, const T: usize>(y: &Y, h: f64, terms: &[(f64, &Y); T], n: usize) -> Y {
+/// y + h sum(a k) over the first n components (the rest stay as in y).
+fn axpy<Y: Vector>(y: &Y, h: f64, terms: &[(f64, &Y)], n: usize) -> Y {
     let mut out = *y;
     for (i, o) in out.as_mut_slice().iter_mut().enumerate().take(n) {
         let mut s = 0.0;
