@@ -828,7 +828,7 @@ impl Mesh {
         let unit = self.unit_load(f, y)?;
         let g = &self.geo;
         // d^2 delta/dt^2 = a0 + a1 N: the free acceleration and the effect of a unit N.
-        // The free accelerations as in `accelerations`, by reciprocals: this runs at every
+        // The free accelerations as in `accelerations_given`, by reciprocals: this runs at every
         // communication point of a locked rigid mesh, where the chain of three divisions was
         // a tenth of the wall time. (The compliant right-hand side keeps its divisions, and so
         // its trajectories bit for bit.)
@@ -859,13 +859,9 @@ impl Mesh {
         }
     }
 
-    /// Accelerations of A, B and the slider under a mesh load; `external` scales the torques,
-    /// housing and slider forces (1 for the real motion, 0 for a unit constraint force alone).
-    fn accelerations(&self, y: &State, m: &MeshLoad, external: f64) -> (f64, f64, f64) {
-        self.accelerations_given(y, &self.loads_at(y), self.w_b(y), m, external)
-    }
-
-    /// `accelerations` with the loads and w_B at hand.
+    /// Accelerations of A, B and the slider under a mesh load, given the loads and w_B;
+    /// `external` scales the torques, housing and slider forces (1 for the real motion, 0 for a
+    /// unit constraint force alone).
     #[inline(always)]
     fn accelerations_given(
         &self,
