@@ -29,6 +29,19 @@ pub trait ContactLaw {
         let f = self.force(delta, s_a)?;
         Ok((f, self.energy_slope(f, s_a)))
     }
+    /// `force_and_slope` of the pairs of one flank, which share delta, into `out` (a law may
+    /// share work between them).
+    fn flank_forces_and_slopes(
+        &self,
+        delta: f64,
+        s_a: &[f64],
+        out: &mut [(f64, f64)],
+    ) -> Result<(), OutOfRange> {
+        for (o, &s) in out.iter_mut().zip(s_a) {
+            *o = self.force_and_slope(delta, s)?;
+        }
+        Ok(())
+    }
     /// Whether force, stiffness and energy depend on s_A (else one evaluation per flank serves
     /// all its pairs).
     fn depends_on_position(&self) -> bool;
@@ -129,6 +142,15 @@ impl ContactLaw for Law {
     #[inline]
     fn force_and_slope(&self, delta: f64, s_a: f64) -> Result<(f64, f64), OutOfRange> {
         dispatch!(self, l => l.force_and_slope(delta, s_a))
+    }
+    #[inline]
+    fn flank_forces_and_slopes(
+        &self,
+        delta: f64,
+        s_a: &[f64],
+        out: &mut [(f64, f64)],
+    ) -> Result<(), OutOfRange> {
+        dispatch!(self, l => l.flank_forces_and_slopes(delta, s_a, out))
     }
     #[inline]
     fn depends_on_position(&self) -> bool {

@@ -706,11 +706,18 @@ impl Mesh {
         pairs: &mut Option<&mut [(f64, f64, f64); SLOTS]>,
     ) -> Result<(), LawOutOfRange> {
         let (delta, ddelta) = self.flank_delta(f, y);
+        let (mut slots, mut s_a, mut count) = ([0; 2], [0.0; 2], 0);
         for k in gated {
-            let s_a = self.s_contact(k, y);
-            let (n, slope) = law
-                .force_and_slope(delta, s_a)
-                .map_err(|e| self.out_of_range(f, e))?;
+            slots[count] = k;
+            s_a[count] = self.s_contact(k, y);
+            count += 1;
+        }
+        // Every pair's force before any pair's load: the law's latency chains of the pairs
+        // then overlap (1.33x -> 1.18x contact model 1's right-hand side, benches/rhs_cost.rs).
+        let mut out = [(0.0, 0.0); 2];
+        law.flank_forces_and_slopes(delta, &s_a[..count], &mut out[..count])
+            .map_err(|e| self.out_of_range(f, e))?;
+        for (&k, &(n, slope)) in slots.iter().zip(&out).take(count) {
             m.p_param += slope * f.dir() * self.geo.r_ab * y[W_A];
             let forces = (n, n * (1.0 + self.loads.chi * ddelta));
             self.apply_pair(k, forces, (delta, ddelta), y, w_b, m, pairs);

@@ -15,6 +15,8 @@
 use super::geometry::Geometry;
 use super::johnson::OutOfRange;
 use super::law::ContactLaw;
+use super::lower_branch::LowerBranch;
+use super::piecewise::{PiecewiseFit, Tolerance};
 use super::ModelError;
 use crate::variables::Params;
 use std::f64::consts::PI;
@@ -265,13 +267,10 @@ impl Structure {
 
 /// Force [N] of one pair at penetration delta >= 0 given ln C: `y ln y = -x` with y = F/C and
 /// x = pi b E* delta / C, so F = -pi b E* delta / W_{-1}(-x); None past the law's range x < 1/e.
+/// Straight from `lambert_w`: the check of the law's tables.
 pub fn force(delta: f64, ln_c: f64, width: f64, e_star: f64) -> Option<f64> {
     let pbe_delta = PI * width * e_star * delta;
-    force_at(pbe_delta, pbe_delta * (-ln_c).exp())
-}
-
-/// The same from pi b E* delta and x.
-fn force_at(pbe_delta: f64, x: f64) -> Option<f64> {
+    let x = pbe_delta * (-ln_c).exp();
     if pbe_delta == 0.0 {
         return Some(0.0);
     }
@@ -308,217 +307,23 @@ pub fn structure_law(p: &Params, g: &Geometry) -> Result<StructureLaw, ModelErro
     StructureLaw::new(structure, g.s_a, g.s_b)
 }
 
-/// A function of s_A on the contact segment (C(s_mid)/C(s_A) for contact model 3), fitted at
-/// initialization: piecewise polynomials of degree `DEGREE` (Chebyshev interpolation on each
-/// piece, kept in power form for Horner's rule: the right-hand side evaluates it for every pair,
-/// and one Chebyshev series over the whole segment needed 32-64 terms, a serial chain of 4x the
-/// latency). C is analytic on the segment; the pieces are halved until the fit's relative error
-/// midway between the nodes and at the ends of every piece is below `LN_C_TOLERANCE`, which is
-/// the error of ln C it implies. An error e in ln C moves a pair's force
-/// by e / (ln C - ln F - 1), ln C - ln F - 1 being about 30 on steel gears (and above 1 inside
-/// the law's range): 1e-11 moves forces by about 3e-13, below the integrator's error at any
-/// rel_tol from 1e-12 on. (The exact ln C itself is a quadrature whose rounding is ~1e-13.)
-#[derive(Clone, Debug, PartialEq)]
-pub struct PiecewiseFit {
-    /// Spans between the kinks of C (where Sainsot's u_f reaches 0 and is held there), each
-    /// fitted on its own: a polynomial piece across a kink would converge only linearly.
-    spans: Vec<Span>,
-    /// The largest difference from the exact ln C found by the check.
-    pub error: f64,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-struct Span {
-    lo: f64,
-    hi: f64,
-    /// Pieces per metre.
-    scale: f64,
-    /// Per piece, the coefficients of u^0..u^DEGREE, u in [-1, 1] across the piece.
-    coef: Vec<[f64; DEGREE + 1]>,
-    /// The largest difference from the exact ln C found by the check.
-    pub error: f64,
-}
-
+/// ln C is tabulated to this error (as C(s_mid)/C(s_A) to this relative error). An error e in
+/// ln C moves a pair's force by e / (ln C - ln F - 1), ln C - ln F - 1 being about 30 on steel
+/// gears (and above 1 inside the law's range): 1e-11 moves forces by about 3e-13, below the
+/// integrator's error at any rel_tol from 1e-12 on. (The exact ln C itself is a quadrature whose
+/// rounding is ~1e-13.)
 pub const LN_C_TOLERANCE: f64 = 1e-11;
-const DEGREE: usize = 7;
 
-impl PiecewiseFit {
-    /// Fits ln C on [lo, hi] with breaks at `kinks` (those inside are used).
-    pub fn new(
-        f: &dyn Fn(f64) -> f64,
-        lo: f64,
-        hi: f64,
-        kinks: &[f64],
-    ) -> Result<PiecewiseFit, ModelError> {
-        let mut cuts: Vec<f64> = kinks
-            .iter()
-            .cloned()
-            .filter(|&k| k > lo && k < hi)
-            .collect();
-        cuts.sort_by(f64::total_cmp);
-        let ends: Vec<f64> = std::iter::once(lo)
-            .chain(cuts)
-            .chain(std::iter::once(hi))
-            .collect();
-        let spans = ends
-            .windows(2)
-            // About 32 pieces over the whole interval to start with (enough for the smooth ln C
-            // of the default pair).
-            .map(|w| {
-                Span::new(
-                    f,
-                    w[0],
-                    w[1],
-                    ((32.0 * (w[1] - w[0]) / (hi - lo)).ceil() as usize).max(4),
-                )
-            })
-            .collect::<Result<Vec<Span>, ModelError>>()?;
-        let error = spans.iter().map(|s| s.error).fold(0.0, f64::max);
-        Ok(PiecewiseFit { spans, error })
-    }
-
-    /// The number of polynomial pieces.
-    pub fn len(&self) -> usize {
-        self.spans.iter().map(|s| s.coef.len()).sum()
-    }
-
-    fn span(&self, s: f64) -> &Span {
-        self.spans
-            .iter()
-            .find(|sp| s < sp.hi)
-            .unwrap_or(self.spans.last().expect("a span"))
-    }
-
-    pub fn value(&self, s: f64) -> f64 {
-        self.span(s).value(s)
-    }
-
-    pub fn derivative(&self, s: f64) -> f64 {
-        self.span(s).derivative(s)
-    }
-
-    /// Both at once, from one lookup of the piece.
-    pub fn value_and_derivative(&self, s: f64) -> (f64, f64) {
-        self.span(s).value_and_derivative(s)
-    }
-}
-
-impl Span {
-    fn new(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, start: usize) -> Result<Span, ModelError> {
-        let mut pieces = start;
-        loop {
-            let t = Self::fit(f, lo, hi, pieces);
-            if t.error <= LN_C_TOLERANCE {
-                return Ok(t);
-            }
-            if pieces >= 1024 {
-                return Err(ModelError::new(format!(
-                    "contact model 3: ln C(s_A) could not be tabulated to {LN_C_TOLERANCE} on [{lo}, {hi}] m (error {})",
-                    t.error
-                )));
-            }
-            pieces *= 2;
-        }
-    }
-
-    fn fit(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, pieces: usize) -> Span {
-        const N: usize = DEGREE + 1;
-        let width = (hi - lo) / pieces as f64;
-        let node = |j: usize| (PI * (j as f64 + 0.5) / N as f64).cos();
-        let coef = (0..pieces)
-            .map(|i| {
-                let mid = lo + (i as f64 + 0.5) * width;
-                let v: Vec<f64> = (0..N).map(|j| f(mid + 0.5 * width * node(j))).collect();
-                // Chebyshev coefficients, then power form: T_k(u) expanded by its recurrence.
-                let c: Vec<f64> = (0..N)
-                    .map(|k| {
-                        2.0 / N as f64
-                            * (0..N)
-                                .map(|j| v[j] * (PI * k as f64 * (j as f64 + 0.5) / N as f64).cos())
-                                .sum::<f64>()
-                    })
-                    .collect();
-                let mut power = [0.0; N];
-                let (mut t0, mut t1) = ([0.0; N], [0.0; N]);
-                t0[0] = 1.0;
-                t1[1] = 1.0;
-                for k in 0..N {
-                    let tk = match k {
-                        0 => t0,
-                        1 => t1,
-                        _ => {
-                            let mut t2 = [0.0; N];
-                            for m in 0..N {
-                                t2[m] = if m > 0 { 2.0 * t1[m - 1] } else { 0.0 } - t0[m];
-                            }
-                            (t0, t1) = (t1, t2);
-                            t2
-                        }
-                    };
-                    let ck = if k == 0 { 0.5 * c[0] } else { c[k] };
-                    for m in 0..N {
-                        power[m] += ck * tk[m];
-                    }
-                }
-                power
-            })
-            .collect();
-        let mut t = Span {
-            lo,
-            hi,
-            scale: 1.0 / width,
-            coef,
-            error: 0.0,
-        };
-        // Midway between the nodes (the Chebyshev extrema), where the error peaks, on every piece.
-        t.error = (0..pieces)
-            .flat_map(|i| (0..=N).map(move |j| (i, j)))
-            .map(|(i, j)| {
-                let u = (PI * j as f64 / N as f64).cos() * (1.0 - 1e-12);
-                lo + (i as f64 + 0.5 + 0.5 * u) * width
-            })
-            .map(|s| ((t.value(s) - f(s)) / f(s)).abs())
-            .fold(0.0, f64::max);
-        t
-    }
-
-    /// The piece of s and u in it; beyond the table's ends the end values hold (a polynomial
-    /// piece extrapolated far could change sign, and stages of a step that carries a pair past
-    /// s_b, before its event is located, reach there).
-    fn locate(&self, s: f64) -> (&[f64; DEGREE + 1], f64) {
-        let x = (s - self.lo) * self.scale;
-        // Truncation is the floor for x >= 0 (and takes NaN to 0), without a call to libm's
-        // floor, which the baseline x86-64 target does not inline.
-        let i = (x.max(0.0) as usize).min(self.coef.len() - 1);
-        (&self.coef[i], (2.0 * (x - i as f64) - 1.0).clamp(-1.0, 1.0))
-    }
-
-    fn value(&self, s: f64) -> f64 {
-        let (c, u) = self.locate(s);
-        c.iter().rev().fold(0.0, |acc, &ck| acc * u + ck)
-    }
-
-    fn derivative(&self, s: f64) -> f64 {
-        self.value_and_derivative(s).1
-    }
-
-    fn value_and_derivative(&self, s: f64) -> (f64, f64) {
-        let (c, u) = self.locate(s);
-        let v = c.iter().rev().fold(0.0, |acc, &ck| acc * u + ck);
-        let d = (1..=DEGREE)
-            .rev()
-            .fold(0.0, |acc, k| acc * u + k as f64 * c[k]);
-        (v, 2.0 * self.scale * d)
-    }
-}
-
-/// Contact model 3 as a `ContactLaw`: the closed form with C from the table.
+/// Contact model 3 as a `ContactLaw`: the closed form with C and the lower branch of W from
+/// their tables.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StructureLaw {
     pub structure: Structure,
-    /// g(s_A) = C(s_mid) / C(s_A): the force needs x = pi b E* delta / C, so tabulating 1/C
-    /// rather than ln C saves an exp per pair (benches/rhs_cost.rs).
+    /// g(s_A) = C(s_mid) / C(s_A): the force needs x = pi b E* delta / C, and a table of 1/C
+    /// gives it without an exp (or a log) per pair.
     pub inv_c: PiecewiseFit,
+    /// v(x) = -1/W_{-1}(-x): F = pi b E* delta v(x).
+    branch: LowerBranch,
     /// pi b E*.
     p: f64,
     /// ln C at the segment's middle.
@@ -527,9 +332,17 @@ pub struct StructureLaw {
     x_scale: f64,
 }
 
+/// What the pairs of one flank share: |delta|, pi b E* |delta| and |delta| x_scale.
+#[derive(Clone, Copy, Debug)]
+struct Penetration {
+    delta: f64,
+    pd: f64,
+    xd: f64,
+}
+
 impl StructureLaw {
-    /// Tabulates ln C over the contact segment [s_a, s_b] (a hundredth of it beyond each end
-    /// for objects at the ends while an event is located).
+    /// Tabulates C(s_mid)/C(s_A) over the contact segment [s_a, s_b] (a hundredth of it beyond
+    /// each end for objects at the ends while an event is located).
     pub fn new(structure: Structure, s_a: f64, s_b: f64) -> Result<StructureLaw, ModelError> {
         let pad = 0.01 * (s_b - s_a);
         let kinks = [
@@ -543,11 +356,14 @@ impl StructureLaw {
             s_a - pad,
             s_b + pad,
             &kinks,
+            Tolerance::Relative(LN_C_TOLERANCE),
+            "contact model 3: C(s_mid)/C(s_A)",
         )?;
         let p = PI * structure.width * structure.e_star;
         Ok(StructureLaw {
             structure,
             inv_c,
+            branch: LowerBranch::new()?,
             p,
             ln_c_mid,
             x_scale: p * (-ln_c_mid).exp(),
@@ -580,19 +396,62 @@ impl StructureLaw {
             .collect()
     }
 
-    /// F at |delta|, or the range error.
-    fn solve(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
-        self.solve_at(delta, self.inv_c.value(s_a))
+    #[inline]
+    fn penetration(&self, delta: f64) -> Penetration {
+        let d = delta.abs();
+        Penetration {
+            delta: d,
+            pd: self.p * d,
+            xd: d * self.x_scale,
+        }
     }
 
-    /// The same given g = C(s_mid)/C(s_A).
-    fn solve_at(&self, delta: f64, g: f64) -> Result<f64, OutOfRange> {
-        let d = delta.abs();
-        force_at(self.p * d, d * self.x_scale * g).ok_or_else(|| OutOfRange {
-            delta: d,
-            // x = 1/e.
-            limit: 1.0 / (std::f64::consts::E * self.x_scale * g),
-        })
+    /// F at |delta| given g = C(s_mid)/C(s_A), or the range error: `y ln y = -x` with
+    /// x = pi b E* delta / C and y = F/C, so F = pi b E* delta v(x).
+    #[inline]
+    fn solve_at(&self, pen: &Penetration, g: f64) -> Result<f64, OutOfRange> {
+        if pen.pd == 0.0 {
+            return Ok(0.0);
+        }
+        let x = pen.xd * g;
+        let v = if x < 1.0 / std::f64::consts::E {
+            self.branch.v(x)
+        } else {
+            f64::NAN
+        };
+        if v.is_finite() {
+            Ok(pen.pd * v)
+        } else {
+            Err(OutOfRange {
+                delta: pen.delta,
+                // x = 1/e.
+                limit: 1.0 / (std::f64::consts::E * self.x_scale * g),
+            })
+        }
+    }
+
+    fn solve(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
+        self.solve_at(&self.penetration(delta), self.inv_c.value(s_a))
+    }
+
+    /// The force (odd in delta) and `energy_slope` of a pair at s_A on a flank at `pen`.
+    #[inline]
+    fn force_and_slope_at(
+        &self,
+        pen: &Penetration,
+        sign: f64,
+        s_a: f64,
+    ) -> Result<(f64, f64), OutOfRange> {
+        let (g, dg) = self.inv_c.value_and_derivative(s_a);
+        let f = self.solve_at(pen, g)?;
+        Ok((sign * f, self.slope(f, g, dg)))
+    }
+
+    /// dU/d(ln C) at fixed delta is -F^2/(2 pi b E*), and d(ln C)/ds = -g'/g (one division:
+    /// a second cost 4 % of the right-hand side).
+    #[inline(always)]
+    fn slope(&self, f: f64, g: f64, dg: f64) -> f64 {
+        f * f * dg / (2.0 * self.p * g)
     }
 }
 
@@ -604,11 +463,7 @@ impl ContactLaw for StructureLaw {
     /// d(delta)/dF = (ln C - ln F - 1)/(pi b E*); 0 at delta = 0 (the log singularity).
     fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange> {
         let f = self.solve(delta, s_a)?;
-        Ok(if f > 0.0 {
-            self.p / (self.ln_c(s_a) - f.ln() - 1.0)
-        } else {
-            0.0
-        })
+        Ok(self.stiffness_at_force(f, delta, s_a))
     }
     fn stiffness_at_force(&self, force: f64, _delta: f64, s_a: f64) -> f64 {
         if force > 0.0 {
@@ -623,16 +478,25 @@ impl ContactLaw for StructureLaw {
         let f = self.solve(d, s_a)?;
         Ok(f * d / 2.0 - f * f / (4.0 * self.p))
     }
-    /// dU/d(ln C) at fixed delta is -F^2/(2 pi b E*), and d(ln C)/ds = -g'/g.
     fn energy_slope(&self, force: f64, s_a: f64) -> f64 {
-        let f = force.max(0.0);
         let (g, dg) = self.inv_c.value_and_derivative(s_a);
-        f * f / (2.0 * self.p) * dg / g
+        self.slope(force.max(0.0), g, dg)
     }
     fn force_and_slope(&self, delta: f64, s_a: f64) -> Result<(f64, f64), OutOfRange> {
-        let (g, dg) = self.inv_c.value_and_derivative(s_a);
-        let f = self.solve_at(delta, g)?;
-        Ok((delta.signum() * f, f * f / (2.0 * self.p) * dg / g))
+        self.force_and_slope_at(&self.penetration(delta), delta.signum(), s_a)
+    }
+    /// |delta| and its products once for all of them.
+    fn flank_forces_and_slopes(
+        &self,
+        delta: f64,
+        s_a: &[f64],
+        out: &mut [(f64, f64)],
+    ) -> Result<(), OutOfRange> {
+        let pen = self.penetration(delta);
+        for (o, &s) in out.iter_mut().zip(s_a) {
+            *o = self.force_and_slope_at(&pen, delta.signum(), s)?;
+        }
+        Ok(())
     }
     fn depends_on_position(&self) -> bool {
         true
@@ -767,6 +631,53 @@ mod tests {
             "{} vs {bend}",
             closed[0]
         );
+    }
+
+    /// The law's tables (C(s_mid)/C(s_A) to 1e-11, the lower branch to 1e-13) against the closed
+    /// form straight from lambert_w with the exact ln C, over the segment and penetrations from
+    /// 1e-10 m to the law's limit. The first moves forces by 1e-11/(ln C - ln F - 1): below
+    /// 1e-12 where x < e^-11 (ln C - ln F - 1 > 10), checked to 1e-11 above (the samples stay
+    /// where it exceeds 1); the second by 1e-13. Flank-wise and pair-wise evaluation agree, and
+    /// the energy slope is -F^2/(2 pi b E*) d(ln C)/ds within 1e-5 (the derivative of a fit,
+    /// against a central difference of the quadrature).
+    #[test]
+    fn tabulated_force_matches_the_closed_form() {
+        let p = Params {
+            geometry: 2,
+            contact_model: 3,
+            ..Params::default()
+        };
+        let g = Geometry::new(&p).unwrap();
+        let law = structure_law(&p, &g).unwrap();
+        let st = &law.structure;
+        let mut checked = 0;
+        for i in 0..=50 {
+            let s = g.s_a + (g.s_b - g.s_a) * i as f64 / 50.0;
+            let ln_c = st.ln_c(s);
+            for k in 0..=60 {
+                let delta = 1e-10 * 10f64.powf(k as f64 / 10.0);
+                let Some(exact) = force(delta, ln_c, st.width, st.e_star) else {
+                    assert!(law.force(delta, s).is_err(), "{s} {delta}");
+                    continue;
+                };
+                let x = PI * st.width * st.e_star * delta * (-ln_c).exp();
+                let bound = if x < (-11f64).exp() { 1e-12 } else { 1e-11 };
+                let f = law.force(delta, s).unwrap();
+                assert!(
+                    (f - exact).abs() <= bound * exact,
+                    "{s} {delta}: {f} vs {exact}"
+                );
+                let mut out = [(0.0, 0.0)];
+                law.flank_forces_and_slopes(-delta, &[s], &mut out).unwrap();
+                assert_eq!(out[0].0, -f);
+                let h = 1e-7 * (g.s_b - g.s_a);
+                let d_ln_c = (st.ln_c(s + h) - st.ln_c(s - h)) / (2.0 * h);
+                let slope = -f * f / (2.0 * PI * st.width * st.e_star) * d_ln_c;
+                assert!((out[0].1 - slope).abs() <= 1e-5 * slope.abs() + 1e-9, "{s}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 2000, "{checked}");
     }
 
     /// The closed form inverts delta(F) = F/(pi b E*) ln(C/F).
