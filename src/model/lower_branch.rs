@@ -12,7 +12,7 @@
 //! 0.5 ms to build. `lambert_w` serves the rest: below X_LO (penetrations below 1e-18 of the
 //! static one) and from X_HI to the limit.
 
-use super::piecewise::{fit_piece, piece_error, polynomial, Tolerance};
+use super::piecewise::{fit_piece, piece_error, polynomial};
 use super::ModelError;
 
 /// Mantissa bits that index a piece inside its binade, and the terms of each piece's polynomial.
@@ -57,13 +57,7 @@ impl LowerBranch {
             .map(|k| {
                 let (lo, hi) = (start(k), start(k + 1));
                 let c = fit_piece(&exact, lo, hi);
-                error = error.max(piece_error(
-                    &c,
-                    &exact,
-                    lo,
-                    hi,
-                    Tolerance::Relative(TOLERANCE),
-                ));
+                error = error.max(piece_error(&c, &exact, lo, hi));
                 let a = 2.0 / (hi - lo);
                 Piece {
                     a,

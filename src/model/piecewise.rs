@@ -1,10 +1,10 @@
 //! A smooth function of one variable fitted at initialization for cheap evaluation in the
 //! right-hand side: piecewise polynomials of degree `DEGREE` (Chebyshev interpolation on each
-//! piece, kept in power form for Horner's rule; one Chebyshev series over a whole contact
+//! piece, kept in power form for Estrin's scheme; one Chebyshev series over a whole contact
 //! segment needed 32-64 terms, a serial chain of 4x the latency). Each span between kinks is
 //! fitted on its own (a polynomial piece across a kink would converge only linearly), and its
-//! pieces are halved until the error found midway between the nodes (the Chebyshev extrema,
-//! where it peaks) on every piece is below the tolerance.
+//! pieces are halved until the relative error found midway between the nodes (the Chebyshev
+//! extrema, where it peaks) on every piece is below the tolerance.
 
 use super::ModelError;
 use std::f64::consts::PI;
@@ -13,7 +13,7 @@ use std::f64::consts::PI;
 pub struct PiecewiseFit {
     /// Spans between the kinks (for ln C, where Sainsot's u_f reaches 0 and is held there).
     spans: Vec<Span>,
-    /// The largest error found by the check.
+    /// The largest relative error found by the check.
     pub error: f64,
 }
 
@@ -27,7 +27,7 @@ struct Span {
     coef: Vec<Coefficients>,
     /// Just below the number of pieces: the largest x that still falls in the last piece.
     end: f64,
-    /// The largest error found by the check.
+    /// The largest relative error found by the check.
     error: f64,
 }
 
@@ -38,30 +38,7 @@ pub const DEGREE: usize = 7;
 #[repr(align(64))]
 struct Coefficients([f64; DEGREE + 1]);
 
-/// How closely a fit must follow its function.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Tolerance {
-    Absolute(f64),
-    /// Relative to the function's value (for one that spans decades).
-    Relative(f64),
-}
-
-impl Tolerance {
-    fn error(self, approx: f64, exact: f64) -> f64 {
-        match self {
-            Tolerance::Absolute(_) => (approx - exact).abs(),
-            Tolerance::Relative(_) => ((approx - exact) / exact).abs(),
-        }
-    }
-
-    fn bound(self) -> f64 {
-        match self {
-            Tolerance::Absolute(t) | Tolerance::Relative(t) => t,
-        }
-    }
-}
-
-/// The coefficients of u^0..u^DEGREE of f's Chebyshev interpolant on [lo, hi], u in [-1, 1]
+/// The coefficients of u^0..u^(N-1) of f's Chebyshev interpolant on [lo, hi], u in [-1, 1]
 /// across it.
 pub fn fit_piece<const N: usize>(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> [f64; N] {
     let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
@@ -102,30 +79,27 @@ pub fn fit_piece<const N: usize>(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> [f
     power
 }
 
-/// The largest error of a piece against f midway between its nodes (the Chebyshev extrema,
-/// where the error peaks), ends included.
-pub fn piece_error<const N: usize>(
-    c: &[f64; N],
-    f: &dyn Fn(f64) -> f64,
-    lo: f64,
-    hi: f64,
-    tol: Tolerance,
-) -> f64 {
+/// The largest relative error of a piece against f midway between its nodes (the Chebyshev
+/// extrema, where the error peaks), ends included.
+pub fn piece_error<const N: usize>(c: &[f64; N], f: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
     (0..=N)
         .map(|j| (PI * j as f64 / N as f64).cos() * (1.0 - 1e-12))
-        .map(|u| tol.error(polynomial(c, u), f(0.5 * (lo + hi) + 0.5 * (hi - lo) * u)))
+        .map(|u| {
+            let exact = f(0.5 * (lo + hi) + 0.5 * (hi - lo) * u);
+            ((polynomial(c, u) - exact) / exact).abs()
+        })
         .fold(0.0, f64::max)
 }
 
 impl PiecewiseFit {
-    /// Fits f on [lo, hi] to within `tol` with breaks at `kinks` (those inside are used);
-    /// `what` names f in the error if the pieces would get too many.
+    /// Fits f on [lo, hi] to within the relative `tolerance` with breaks at `kinks` (those
+    /// inside are used); `what` names f in the error if the pieces would get too many.
     pub fn new(
         f: &dyn Fn(f64) -> f64,
         lo: f64,
         hi: f64,
         kinks: &[f64],
-        tol: Tolerance,
+        tolerance: f64,
         what: &str,
     ) -> Result<PiecewiseFit, ModelError> {
         let mut cuts: Vec<f64> = kinks
@@ -144,7 +118,7 @@ impl PiecewiseFit {
             // the default pair).
             .map(|w| {
                 let start = ((32.0 * (w[1] - w[0]) / (hi - lo)).ceil() as usize).max(4);
-                Span::new(f, w[0], w[1], start, tol, what)
+                Span::new(f, w[0], w[1], start, tolerance, what)
             })
             .collect::<Result<Vec<Span>, ModelError>>()?;
         let error = spans.iter().map(|s| s.error).fold(0.0, f64::max);
@@ -187,18 +161,18 @@ impl Span {
         lo: f64,
         hi: f64,
         start: usize,
-        tol: Tolerance,
+        tolerance: f64,
         what: &str,
     ) -> Result<Span, ModelError> {
         let mut pieces = start;
         loop {
-            let t = Self::fit(f, lo, hi, pieces, tol);
-            if t.error <= tol.bound() {
+            let t = Self::fit(f, lo, hi, pieces);
+            if t.error <= tolerance {
                 return Ok(t);
             }
             if pieces >= 1024 {
                 return Err(ModelError::new(format!(
-                    "{what} could not be tabulated to {tol:?} on [{lo}, {hi}] (error {})",
+                    "{what} could not be tabulated to {tolerance} on [{lo}, {hi}] (error {})",
                     t.error
                 )));
             }
@@ -206,7 +180,7 @@ impl Span {
         }
     }
 
-    fn fit(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, pieces: usize, tol: Tolerance) -> Span {
+    fn fit(f: &dyn Fn(f64) -> f64, lo: f64, hi: f64, pieces: usize) -> Span {
         let width = (hi - lo) / pieces as f64;
         let ends = |i: usize| (lo + i as f64 * width, lo + (i + 1) as f64 * width);
         let coef: Vec<_> = (0..pieces)
@@ -220,7 +194,7 @@ impl Span {
             .enumerate()
             .map(|(i, c)| {
                 let (a, b) = ends(i);
-                piece_error(&c.0, f, a, b, tol)
+                piece_error(&c.0, f, a, b)
             })
             .fold(0.0, f64::max);
         Span {
@@ -269,7 +243,6 @@ impl Span {
 pub fn polynomial<const N: usize>(c: &[f64; N], u: f64) -> f64 {
     let u2 = u * u;
     match N {
-        4 => (c[0] + c[1] * u) + u2 * (c[2] + c[3] * u),
         6 => ((c[0] + c[1] * u) + u2 * (c[2] + c[3] * u)) + (u2 * u2) * (c[4] + c[5] * u),
         8 => {
             let low = (c[0] + c[1] * u) + u2 * (c[2] + c[3] * u);
@@ -285,7 +258,6 @@ pub fn polynomial<const N: usize>(c: &[f64; N], u: f64) -> f64 {
 fn slope<const N: usize>(c: &[f64; N], u: f64) -> f64 {
     let u2 = u * u;
     match N {
-        4 => (c[1] + 2.0 * c[2] * u) + u2 * (3.0 * c[3]),
         8 => {
             let low = (c[1] + 2.0 * c[2] * u) + u2 * (3.0 * c[3] + 4.0 * c[4] * u);
             let high = (5.0 * c[5] + 6.0 * c[6] * u) + u2 * (7.0 * c[7]);

@@ -16,7 +16,7 @@ use super::geometry::Geometry;
 use super::johnson::OutOfRange;
 use super::law::ContactLaw;
 use super::lower_branch::LowerBranch;
-use super::piecewise::{PiecewiseFit, Tolerance};
+use super::piecewise::PiecewiseFit;
 use super::ModelError;
 use crate::variables::Params;
 use std::f64::consts::PI;
@@ -356,7 +356,7 @@ impl StructureLaw {
             s_a - pad,
             s_b + pad,
             &kinks,
-            Tolerance::Relative(LN_C_TOLERANCE),
+            LN_C_TOLERANCE,
             "contact model 3: C(s_mid)/C(s_A)",
         )?;
         let p = PI * structure.width * structure.e_star;
