@@ -712,8 +712,9 @@ impl Mesh {
             s_a[count] = self.s_contact(k, y);
             count += 1;
         }
-        // Every pair's force before any pair's load: the law's latency chains of the pairs
-        // then overlap (1.33x -> 1.18x contact model 1's right-hand side, benches/rhs_cost.rs).
+        // Every pair's force in one call before any pair's load, so that the law's latency
+        // chains of the pairs overlap (1.33x -> 1.18x contact model 1's right-hand side,
+        // benches/rhs_cost.rs; forces then loads with a call per pair stayed at 1.33x).
         let mut out = [(0.0, 0.0); 2];
         law.flank_forces_and_slopes(delta, &s_a[..count], &mut out[..count])
             .map_err(|e| self.out_of_range(f, e))?;
