@@ -519,14 +519,26 @@ def test_brute_force_nonsmooth_integration_with_deviations():
 # ------------------------------------------------------------------------------ scenes
 @pytest.mark.parametrize("name", ["runout-pitch", "structure-relief"])
 def test_new_scene_reference_is_current(name):
-    """Re-running the scene (at its reference rtol) reproduces the committed CSV (to its 15
-    printed digits; bound 1e-12 of each column's scale for the printing and platform rounding)."""
+    """Re-running the scene (at its reference rtol) reproduces the committed CSV: the same rows
+    (events included), and on the output grid every column within 1e-8 of its scale.
+
+    Why 1e-8: another CPU's libm and NumPy round the last bit differently, and the adaptive
+    integration carries that to about 2e-10 of the scale (k_mesh of runout-pitch on an AMD EPYC
+    without AVX-512; 1e-12 held only on the machine that wrote the CSV). The reference's own
+    integration error is about 1e-6 of F_f1's scale (rtol 1e-12 against 1e-13, scene file),
+    so 1e-8 hides nothing it resolves, and a stale CSV after a model change differs by far more.
+    Event rows are left out of the values: rounding moves an event by ulps, and k_mesh and
+    load_share jump there."""
     sc = G.load_scene(name)
     res = G.run_scene(sc)
     names, table = G.read_table_csv(os.path.join(ROOT, "tests", "reference", name + ".csv"))
     assert names == res.names and table.shape == res.table.shape
-    scale = np.maximum(np.abs(res.table).max(axis=0), 1e-300)
-    assert np.all(np.abs(table - res.table) <= 1e-12 * scale)
+    dt = sc["output_interval"]
+    ours, committed = G.grid_rows(res.names, res.table, dt), G.grid_rows(names, table, dt)
+    assert ours.shape == committed.shape
+    scale = np.maximum(np.abs(ours).max(axis=0), 1e-300)
+    rel = (np.abs(committed - ours) / scale).max(axis=0)
+    assert np.all(rel <= 1e-8), dict(zip(names, rel))
 
 
 def test_structure_relief_scene_features():
