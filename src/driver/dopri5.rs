@@ -50,15 +50,17 @@ pub struct Dopri5<Y> {
     pub facold: f64,
 }
 
-/// y + h sum(a k) over the first n components (the rest stay as in y).
-fn axpy<Y: Vector>(y: &Y, h: f64, terms: &[(f64, &Y)], n: usize) -> Y {
+/// y + h sum(a k) over the first n components (the rest stay as in y). The term count is a
+/// constant so that the loop over terms unrolls; inlined, so each stage's sum is straight code.
+#[inline(always)]
+fn axpy<Y: Vector, const M: usize>(y: &Y, h: f64, a: [f64; M], k: [&Y; M], n: usize) -> Y {
     let mut out = *y;
-    for (i, o) in out.as_mut_slice().iter_mut().enumerate().take(n) {
-        let mut s = 0.0;
-        for (a, k) in terms {
-            s += a * k[i];
+    for i in 0..n {
+        let mut s = a[0] * k[0][i];
+        for j in 1..M {
+            s += a[j] * k[j][i];
         }
-        *o += h * s;
+        out[i] += h * s;
     }
     out
 }
@@ -126,32 +128,22 @@ impl<Y: Vector> Dopri5<Y> {
             }
             let mut k = [Y::zeros(); 6];
             let stages = (|| {
-                sys.rhs(&axpy(&y, h, &[(A21, &k1)], n), &mut k[0])?;
-                sys.rhs(&axpy(&y, h, &[(A31, &k1), (A32, &k[0])], n), &mut k[1])?;
+                sys.rhs(&axpy(&y, h, [A21], [&k1], n), &mut k[0])?;
+                sys.rhs(&axpy(&y, h, [A31, A32], [&k1, &k[0]], n), &mut k[1])?;
                 sys.rhs(
-                    &axpy(&y, h, &[(A41, &k1), (A42, &k[0]), (A43, &k[1])], n),
+                    &axpy(&y, h, [A41, A42, A43], [&k1, &k[0], &k[1]], n),
                     &mut k[2],
                 )?;
                 sys.rhs(
-                    &axpy(
-                        &y,
-                        h,
-                        &[(A51, &k1), (A52, &k[0]), (A53, &k[1]), (A54, &k[2])],
-                        n,
-                    ),
+                    &axpy(&y, h, [A51, A52, A53, A54], [&k1, &k[0], &k[1], &k[2]], n),
                     &mut k[3],
                 )?;
                 sys.rhs(
                     &axpy(
                         &y,
                         h,
-                        &[
-                            (A61, &k1),
-                            (A62, &k[0]),
-                            (A63, &k[1]),
-                            (A64, &k[2]),
-                            (A65, &k[3]),
-                        ],
+                        [A61, A62, A63, A64, A65],
+                        [&k1, &k[0], &k[1], &k[2], &k[3]],
                         n,
                     ),
                     &mut k[4],
@@ -160,13 +152,8 @@ impl<Y: Vector> Dopri5<Y> {
             let y1 = axpy(
                 &y,
                 h,
-                &[
-                    (A71, &k1),
-                    (A73, &k[1]),
-                    (A74, &k[2]),
-                    (A75, &k[3]),
-                    (A76, &k[4]),
-                ],
+                [A71, A73, A74, A75, A76],
+                [&k1, &k[1], &k[2], &k[3], &k[4]],
                 n,
             );
             let result = stages.and_then(|_| sys.rhs(&y1, &mut k[5]));
