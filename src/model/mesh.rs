@@ -1483,6 +1483,10 @@ impl Mesh {
         let before = self.elastic_energy(y)?;
         let motion_before = self.rigid_motion_modes();
         let e = EventFn::from_index(i);
+        let jumping_carried = match e {
+            EventFn::Top(k) | EventFn::Bottom(k) => Some(self.carrying(k)),
+            _ => None,
+        };
         let span = self.geo.m_c as f64 * self.geo.p_b;
         let mut what = match e {
             EventFn::Top(k) | EventFn::Bottom(k) => {
@@ -1593,7 +1597,15 @@ impl Mesh {
         }
         self.n_events += 1;
         self.e_gate += self.elastic_energy(y)? - before;
-        let smooth = motion_before.is_some() && motion_before == self.rigid_motion_modes();
+        let smooth = match (motion_before, e) {
+            (Some(_), _) => motion_before == self.rigid_motion_modes(),
+            // A compliant pair that carries no force before and after its jump (outside its
+            // contact segment or on the idle flank) leaves the right-hand side alone.
+            (None, EventFn::Top(k) | EventFn::Bottom(k)) => {
+                jumping_carried == Some(false) && !self.carrying(k)
+            }
+            (None, _) => false,
+        };
         Ok(EventReport { what, smooth })
     }
 
@@ -1920,6 +1932,30 @@ mod tests {
         assert!(m.flank_on(Flank::Forward) && !m.flank_on(Flank::Backward));
         let o = m.readout(&y).unwrap();
         assert_eq!((o.flank_force[0], o.flank_pairs[0]), (0.0, 2));
+    }
+
+    /// A jump of a pair on the idle flank leaves the right-hand side as it was, and says so (the
+    /// driver then continues its step); a jump of a carrying pair does not.
+    #[test]
+    fn only_a_jump_that_carries_no_force_is_smooth() {
+        let (p, i) = paper();
+        let (m, y) = Mesh::new(&p, &i).unwrap();
+        let mut dy = [0.0; NY];
+        m.rhs(&y, &mut dy).unwrap();
+        for e in [EventFn::Top(2), EventFn::Bottom(2), EventFn::Bottom(3)] {
+            let (mut m2, mut y2) = (m.clone(), y);
+            assert!(m2.handle_event(e.index(), &mut y2).unwrap().smooth, "{e:?}");
+            let mut dy2 = [0.0; NY];
+            m2.rhs(&y2, &mut dy2).unwrap();
+            assert_eq!((y2, dy2), (y, dy), "{e:?}");
+        }
+        let mut m2 = m.clone();
+        assert!(m2.carrying(0));
+        assert!(
+            !m2.handle_event(EventFn::Top(0).index(), &mut y.clone())
+                .unwrap()
+                .smooth
+        );
     }
 
     /// Spec §4: the power of the contact torques equals -F_n d(delta)/dt - F_t v_s, i.e. the
