@@ -713,6 +713,18 @@ def loosest_meeting(res, label, level=TARGET_DTE):
     return best
 
 
+def rate_verdict(v, target):
+    return "met" if v >= target else f"missed by {target / v:.1f}×"
+
+
+def median_verdict(ratios):
+    """The SciPy target asks for a median of at least 300x over the scenes."""
+    median = float(np.median([r for r, _ in ratios]))
+    below = sum(r < 300 for r, _ in ratios)
+    return (f"{'met' if median >= 300 else f'missed by {300 / median:.1f}×'} in the median "
+            f"({below} of {len(ratios)} scenes below 300×)")
+
+
 def summary(refs, all_results, tl):
     L = []
     A = L.append
@@ -733,10 +745,12 @@ def summary(refs, all_results, tl):
             if rr and rr is not b:
                 extra = (f"; {0.1 / rr['cpu']:.0f} per CPU s at rtol {rr['rel_tol']:.0e}, the "
                          f"loosest from which every tighter rtol also passes") + extra
-            A(f"| paper-m2 ≥ 100 simulated s per s through the C API, dte within 0.1 % | "
+            A(f"| paper-m2 ≥ 100 simulated s per s through the C API, dte within 0.1 % "
+              f"(the damped variant ≥ 300) | "
               f"{v:.0f} per CPU s, {0.1 / b['wall']:.0f} per wall s (rtol {b['rel_tol']:.0e}, "
               f"error {b['dte_rel']:.1e} of the range over t ≤ {refs['paper-m2'].horizon:.3g} s){extra} "
-              f"| {'met' if v >= 100 else f'missed by {100 / v:.1f}×'} |")
+              f"| paper-m2: {rate_verdict(v, 100)}"
+              + (f"; damped: {rate_verdict(0.1 / d['cpu'], 300)}" if d else "") + " |")
     ratios = []
     for n, res in all_results.items():
         ours = [cost_at(res, lab, TARGET_DTE) for lab in ("solver 1", "solver 2")]
@@ -748,8 +762,8 @@ def summary(refs, all_results, tl):
         ratios.sort()
         A(f"| ≥ 300× faster than the SciPy peer at equal error (dte error ≤ 0.1 % of the range) | "
           f"{ratios[0][0]:.0f}× ({ratios[0][1]}) to {ratios[-1][0]:.0f}× ({ratios[-1][1]}), median "
-          f"{ratios[len(ratios) // 2][0]:.0f}× over {len(ratios)} scenes | "
-          f"{'met' if ratios[0][0] >= 300 else 'missed on ' + str(sum(r < 300 for r, _ in ratios)) + ' of ' + str(len(ratios))} |")
+          f"{np.median([r for r, _ in ratios]):.0f}× over {len(ratios)} scenes | "
+          f"{median_verdict(ratios)} |")
     ns = tl.get("dostep_ns")
     if ns:
         A(f"| fmi2DoStep without an event ≤ 1 µs | {ns:.0f} ns | {'met' if ns <= 1000 else 'missed'} |")
