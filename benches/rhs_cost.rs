@@ -3,6 +3,9 @@
 //! cycle of a loaded, damped run with friction: `Mesh::rhs` alone, both models in the same
 //! process, interleaved, medians of repeated timings.
 //!
+//! Also `Mesh::rhs` of the paper rig's scenes (paper-m2 and damped: Johnson, no friction) over one
+//! base pitch, the cost per evaluation behind the floors in docs/integrators.md.
+//!
 //! Run: `cargo bench --bench rhs_cost`.
 
 use spur_gear_mesh::model::mesh::{DTE, THETA_A};
@@ -46,6 +49,36 @@ fn setup(contact_model: i32) -> (Mesh, Vec<State>) {
     (mesh, states)
 }
 
+/// The paper rig as scenes/paper-m2.toml and damped.toml set it, at 64 positions over one base
+/// pitch (single and double contact in the scenes' proportion) at the quasi-static penetration.
+fn paper_setup(chi: f64) -> (Mesh, Vec<State>) {
+    let delta = 5.592370531367129e-7;
+    let p = Params {
+        c_load: 2.0,
+        backlash: 1e-4,
+        chi,
+        w_A_start: 100.0,
+        w_B_start: 100.0 / 1.5,
+        dte_start: delta,
+        ..Params::default()
+    };
+    let i = Inputs {
+        tau_A: 100.0,
+        ..Inputs::default()
+    };
+    let (mesh, y0) = Mesh::new(&p, &i).unwrap();
+    let g = &mesh.geo;
+    let states = (0..64)
+        .map(|k| {
+            let mut y = y0;
+            y[THETA_A] += k as f64 / 64.0 * g.p_b / g.r_ab;
+            y[DTE] = delta;
+            y
+        })
+        .collect();
+    (mesh, states)
+}
+
 fn time(mesh: &Mesh, states: &[State], reps: usize) -> f64 {
     let mut dy = [0.0; NY];
     let start = Instant::now();
@@ -82,5 +115,17 @@ fn main() {
         median(ratio.clone()),
         ratio.iter().cloned().fold(f64::INFINITY, f64::min),
         ratio.iter().cloned().fold(0.0, f64::max)
+    );
+    let (mu, su) = paper_setup(0.0);
+    let (md, sd) = paper_setup(10.0);
+    let (mut tu, mut td) = (Vec::new(), Vec::new());
+    for _ in 0..41 {
+        tu.push(time(&mu, &su, 2000));
+        td.push(time(&md, &sd, 2000));
+    }
+    println!(
+        "Mesh::rhs, the paper rig over one base pitch, 41 repetitions: undamped (paper-m2) {:.1} ns, damped (chi = 10 s/m) {:.1} ns",
+        median(tu),
+        median(td)
     );
 }
