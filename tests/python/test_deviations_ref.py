@@ -523,8 +523,8 @@ def test_new_scene_reference_is_current(name):
     (events included), and on the output grid every column within 1e-8 of its scale.
 
     Why 1e-8: another CPU's libm and NumPy round the last bit differently, and the adaptive
-    integration carries that to about 2e-10 of the scale (k_mesh of runout-pitch on an AMD EPYC
-    without AVX-512; 1e-12 held only on the machine that wrote the CSV). The reference's own
+    integration carries that to about 2e-10 of the scale (k_mesh of runout-pitch on the AMD
+    EPYC machine of 2026-11-23; 1e-12 held only where the CSV was written). The reference's own
     integration error is about 1e-6 of F_f1's scale (rtol 1e-12 against 1e-13, scene file),
     so 1e-8 hides nothing it resolves, and a stale CSV after a model change differs by far more.
     Event rows are left out of the values: rounding moves an event by ulps, and k_mesh and
