@@ -204,11 +204,12 @@ impl<Y: Vector> Dopri5<Y> {
                 return Ok(());
             }
             stats.rejected += 1;
-            // The error is O(h^5): shrink by err^(1/5) with no cap. After a contact onset the
-            // first step is often 10x too long (err ~ 1e5), and a cap of 5 cost one more
-            // rejection there. NaN errors land here too: shrink hard.
+            // The error is O(h^5): shrink by err^(1/5), at most 20x. After a contact onset the
+            // first step is often 10x too long (err ~ 1e5), and Hairer's cap of 5 cost one more
+            // rejection there; an error far outside the asymptotic range (a stage near the
+            // law's limit) still backs off over several tries. NaN errors: shrink hard.
             let shrink = if err.is_finite() {
-                (0.2 * err.ln()).exp() / 0.9
+                ((0.2 * err.ln()).exp() / 0.9).min(20.0)
             } else {
                 4.0
             };
