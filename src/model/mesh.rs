@@ -1483,10 +1483,11 @@ impl Mesh {
         let before = self.elastic_energy(y)?;
         let motion_before = self.rigid_motion_modes();
         let e = EventFn::from_index(i);
-        let jumping_carried = match e {
-            EventFn::Top(k) | EventFn::Bottom(k) => Some(self.carrying(k)),
-            _ => None,
-        };
+        // A compliant pair that carries no force before and after its jump (outside its
+        // contact segment or on the idle flank) leaves the right-hand side alone.
+        let idle_jump =
+            |m: &Mesh| matches!(e, EventFn::Top(k) | EventFn::Bottom(k) if !m.carrying(k));
+        let idle_before = idle_jump(self);
         let span = self.geo.m_c as f64 * self.geo.p_b;
         let mut what = match e {
             EventFn::Top(k) | EventFn::Bottom(k) => {
@@ -1597,14 +1598,9 @@ impl Mesh {
         }
         self.n_events += 1;
         self.e_gate += self.elastic_energy(y)? - before;
-        let smooth = match (motion_before, e) {
-            (Some(_), _) => motion_before == self.rigid_motion_modes(),
-            // A compliant pair that carries no force before and after its jump (outside its
-            // contact segment or on the idle flank) leaves the right-hand side alone.
-            (None, EventFn::Top(k) | EventFn::Bottom(k)) => {
-                jumping_carried == Some(false) && !self.carrying(k)
-            }
-            (None, _) => false,
+        let smooth = match motion_before {
+            Some(_) => motion_before == self.rigid_motion_modes(),
+            None => idle_before && idle_jump(self),
         };
         Ok(EventReport { what, smooth })
     }
