@@ -9,11 +9,17 @@
 //! on 32 pieces per binade: against degree 7 on 8, Estrin's scheme needs the same three levels
 //! but a piece is one cache line (8 reals with its scaling), and the right-hand side of
 //! contact model 3 came out 9 % cheaper (benches/rhs_cost.rs); the table takes 231 kB and
-//! 0.5 ms to build. `lambert_w` serves the rest: below X_LO (penetrations below 1e-18 of the
-//! static one) and from X_HI to the limit.
+//! 0.5 ms to build, once per process (`shared`). `lambert_w` serves the rest: below X_LO
+//! (penetrations below 1e-18 of the static one) and from X_HI to the limit.
+//!
+//! Johnson's law (contact model 1) could read the same table, but measured it saves only 3 %
+//! of the damped paper scene's instructions: `lambert_w` costs 110 instructions with its log,
+//! the table's lookup and polynomial about 65 inlined. Not worth a model 3 right-hand side
+//! 1.3x model 1's (issue 9 asks for at most 1.2x).
 
 use super::piecewise::{fit_piece, piece_error, polynomial};
 use super::ModelError;
+use std::sync::OnceLock;
 
 /// Mantissa bits that index a piece inside its binade, and the terms of each piece's polynomial.
 const BITS: u32 = 5;
@@ -72,6 +78,17 @@ impl LowerBranch {
             )));
         }
         Ok(LowerBranch { base, pieces })
+    }
+
+    /// The table every instance reads. It depends on nothing, so it is built once per process,
+    /// on first use, and never written again: instances stay independent, and a study of many
+    /// model-3 instances pays the 0.5 ms and the 231 kB once.
+    pub fn shared() -> Result<&'static LowerBranch, ModelError> {
+        static TABLE: OnceLock<Result<LowerBranch, ModelError>> = OnceLock::new();
+        TABLE
+            .get_or_init(LowerBranch::new)
+            .as_ref()
+            .map_err(Clone::clone)
     }
 
     /// v(x) for 0 < x < 1/e (the caller checks the range); NaN beyond.

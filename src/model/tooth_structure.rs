@@ -323,7 +323,7 @@ pub struct StructureLaw {
     /// gives it without an exp (or a log) per pair.
     pub inv_c: PiecewiseFit,
     /// v(x) = -1/W_{-1}(-x): F = pi b E* delta v(x).
-    branch: LowerBranch,
+    branch: &'static LowerBranch,
     /// pi b E*.
     p: f64,
     /// ln C at the segment's middle.
@@ -363,7 +363,7 @@ impl StructureLaw {
         Ok(StructureLaw {
             structure,
             inv_c,
-            branch: LowerBranch::new()?,
+            branch: LowerBranch::shared()?,
             p,
             ln_c_mid,
             x_scale: p * (-ln_c_mid).exp(),
