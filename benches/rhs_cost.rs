@@ -1,7 +1,8 @@
 //! The right-hand side of contact model 3 against contact model 1's (issue 9, point 1: at most
 //! 1.2 times), on the standard pair (geometry 2, 22/33, module 10 mm) at states along one mesh
 //! cycle of a loaded, damped run with friction: `Mesh::rhs` alone, both models in the same
-//! process, interleaved, medians of repeated timings.
+//! process, interleaved, medians of repeated timings. Since Johnson's law reads the W_-1 table
+//! too (issue 12), the ratio reads about 1.65: see the README, "A real gear's mesh".
 //!
 //! Also `Mesh::rhs` of the paper rig's scenes (paper-m2 and damped: Johnson, no friction) over one
 //! base pitch, the cost per evaluation behind the floors in docs/integrators.md.

@@ -4,7 +4,9 @@
 //! one more variant of `Law`.
 
 use super::johnson::{self, OutOfRange};
+use super::lower_branch::LowerBranch;
 use super::tooth_structure::StructureLaw;
+use super::ModelError;
 use std::sync::Arc;
 
 pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
@@ -54,20 +56,58 @@ pub trait ContactLaw {
 }
 
 /// Johnson's line contact (paper eq. 5.1) with R = L + delta: independent of the position.
+/// `F = pi b E* delta v(x)`, `x = e delta/(4R)`, with v from the shared table of W_-1
+/// (`LowerBranch`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JohnsonLaw {
     pub l: f64,
     pub e_star: f64,
     pub width: f64,
+    /// pi E* b.
+    p: f64,
+    branch: &'static LowerBranch,
+}
+
+impl JohnsonLaw {
+    pub fn new(l: f64, e_star: f64, width: f64) -> Result<JohnsonLaw, ModelError> {
+        Ok(JohnsonLaw {
+            l,
+            e_star,
+            width,
+            p: std::f64::consts::PI * e_star * width,
+            branch: LowerBranch::shared()?,
+        })
+    }
 }
 
 impl ContactLaw for JohnsonLaw {
+    /// The odd continuation below 0, as `johnson::force`, which stays the exact oracle.
     #[inline(always)]
     fn force(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
-        Ok(self.width * johnson::force(delta, self.l + delta, self.e_star)?)
+        let d = delta.abs();
+        let r = self.l + delta;
+        let x = std::f64::consts::E * d / (4.0 * r);
+        if x == 0.0 {
+            return Ok(0.0);
+        }
+        // NaN x fails the comparison too.
+        let v = if x < 1.0 / std::f64::consts::E {
+            self.branch.v(x)
+        } else {
+            f64::NAN
+        };
+        if v.is_finite() {
+            Ok(delta.signum() * self.p * d * v)
+        } else {
+            Err(OutOfRange {
+                delta: d,
+                limit: johnson::delta_limit(r),
+            })
+        }
     }
     fn stiffness(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
-        Ok(self.width * johnson::stiffness(delta, self.l + delta, self.e_star)?)
+        let f = self.force(delta, 0.0)?;
+        Ok(self.stiffness_at_force(f.abs(), delta, 0.0))
     }
     /// pi E* b / (-1 - ln y), y = e N/(4 pi E* R) (`johnson::stiffness`).
     fn stiffness_at_force(&self, force: f64, delta: f64, _s_a: f64) -> f64 {
@@ -163,5 +203,57 @@ impl ContactLaw for Law {
     }
     fn limit_name(&self) -> &'static str {
         dispatch!(self, l => l.limit_name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Through the table Johnson's force stays within the table's tolerance (1e-13) of the
+    /// closed form with `lambert_w` (`johnson::force`), over the penetrations from below the
+    /// table's range to the law's limit, for both signs, with the same range errors.
+    #[test]
+    fn johnson_through_the_table_matches_the_closed_form() {
+        let (l, e_star, width) = (0.1714599985155, 115384615384.615, 0.02);
+        let law = JohnsonLaw::new(l, e_star, width).unwrap();
+        // With R = L + delta the range ends where delta = 4(L + delta)/e^2.
+        let e2 = std::f64::consts::E * std::f64::consts::E;
+        let limit = 4.0 * l / (e2 - 4.0);
+        let mut k = 0;
+        let mut delta = 1e-40;
+        while delta < limit {
+            for d in [delta, -delta] {
+                // R = L + delta: below 0 the limit is a little lower.
+                let Ok(exact) = johnson::force(d, l + d, e_star) else {
+                    let e = johnson::force(d, l + d, e_star).unwrap_err();
+                    assert_eq!(law.force(d, 0.0), Err(e), "{d}");
+                    continue;
+                };
+                let exact = width * exact;
+                let got = law.force(d, 0.0).unwrap();
+                assert!(
+                    (got - exact).abs() <= 2e-13 * exact.abs(),
+                    "{d}: {got} vs {exact}"
+                );
+                let k_exact = width * johnson::stiffness(d, l + d, e_star).unwrap();
+                let k_got = law.stiffness(d, 0.0).unwrap();
+                assert!(
+                    (k_got - k_exact).abs() <= 1e-13 * k_exact,
+                    "{d}: {k_got} vs {k_exact}"
+                );
+            }
+            delta *= 1.0137;
+            k += 1;
+        }
+        assert!(k > 5000, "{k} samples");
+        assert_eq!(law.force(0.0, 0.0), Ok(0.0));
+        assert!(law.force(limit * (1.0 - 1e-9), 0.0).is_ok());
+        for bad in [limit * (1.0 + 1e-9), 2.0 * limit, f64::NAN, f64::INFINITY] {
+            let e = law.force(bad, 0.0).unwrap_err();
+            let exact = johnson::force(bad, l + bad, e_star).unwrap_err();
+            // Debug text: NaN fields compare unequal.
+            assert_eq!(format!("{e:?}"), format!("{exact:?}"));
+        }
     }
 }

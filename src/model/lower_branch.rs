@@ -1,21 +1,21 @@
-//! The lower branch of Lambert W as contact model 3 uses it: `v(x) = -1/W_{-1}(-x)`, so that
-//! `y = x v` solves `y ln y = -x` (0 < x < 1/e).
+//! The lower branch of Lambert W as the compliant laws use it: `v(x) = -1/W_{-1}(-x)`, so that
+//! `y = x v` solves `y ln y = -x` (0 < x < 1/e). Johnson's law (contact model 1) and contact
+//! model 3 both give a pair's force as `F = pi b E* delta v(x)`.
 //!
-//! Tabulated at initialization in pieces found from the bits of x: the exponent and the top
-//! `BITS` bits of the mantissa index the piece directly (no log, no search), 2^BITS pieces per
-//! binade, each a polynomial in the position inside it. v is analytic for 0 < x < 1/e; its
-//! singularities are x = 0 (through ln x), 2^BITS piece widths below any piece, and the branch
-//! point 1/e, over a hundred widths above the last, so every piece converges alike. Degree 5
-//! on 32 pieces per binade: against degree 7 on 8, Estrin's scheme needs the same three levels
-//! but a piece is one cache line (8 reals with its scaling), and the right-hand side of
-//! contact model 3 came out 9 % cheaper (benches/rhs_cost.rs); the table takes 231 kB and
-//! 0.5 ms to build, once per process (`shared`). `lambert_w` serves the rest: below X_LO
-//! (penetrations below 1e-18 of the static one) and from X_HI to the limit.
+//! Tabulated in pieces found from the bits of x: the exponent and the top `BITS` bits of the
+//! mantissa index the piece directly (no log, no search), 2^BITS pieces per binade, each a
+//! polynomial in the position inside it. v is analytic for 0 < x < 1/e; its singularities are
+//! x = 0 (through ln x), 2^BITS piece widths below any piece, and the branch point 1/e, over a
+//! hundred widths above the last, so every piece converges alike. Degree 5 on 32 pieces per
+//! binade: against degree 7 on 8, Estrin's scheme needs the same three levels but a piece is
+//! one cache line (8 reals with its scaling), and the right-hand side of contact model 3 came
+//! out 9 % cheaper (benches/rhs_cost.rs). The table takes 231 kB and 0.5 ms to build, once per
+//! process (`shared`). `lambert_w` serves the rest: below X_LO (penetrations below 1e-18 of
+//! the static one) and from X_HI to the limit.
 //!
-//! Johnson's law (contact model 1) could read the same table, but measured it saves only 3 %
-//! of the damped paper scene's instructions: `lambert_w` costs 110 instructions with its log,
-//! the table's lookup and polynomial about 65 inlined. Not worth a model 3 right-hand side
-//! 1.3x model 1's (issue 9 asks for at most 1.2x).
+//! Against `lambert_w` and its `ln` per evaluation, the table made Johnson's `Mesh::rhs` on the
+//! paper rig about a quarter cheaper (`cargo bench --bench rhs_cost`): the library's log and
+//! its iteration are a chain of dependent operations that the polynomial's levels are not.
 
 use super::piecewise::{fit_piece, piece_error, polynomial};
 use super::ModelError;

@@ -160,11 +160,7 @@ mod tests {
             ..Params::default()
         };
         let g = Geometry::new(&p).unwrap();
-        let law = JohnsonLaw {
-            l: g.l,
-            e_star: g.e_star,
-            width: p.width,
-        };
+        let law = JohnsonLaw::new(g.l, g.e_star, p.width).unwrap();
         (g, law, 3e5 * p.width)
     }
 
