@@ -253,8 +253,8 @@ unsafe fn get<S: Slave, T>(
     get_one: impl Fn(&mut S, ValueReference) -> Result<T, Failure>,
 ) -> Status {
     with::<S>(c, func, allowed::GET, |i| {
-        let vrs = slice(vr, n, "vr")?;
-        let out = slice_mut(value, n, "value")?;
+        let vrs = slice(vr, n, i.arg("vr"))?;
+        let out = slice_mut(value, n, i.arg("value"))?;
         for (o, &r) in out.iter_mut().zip(vrs) {
             *o = get_one(&mut i.slave, r)?;
         }
@@ -272,7 +272,7 @@ unsafe fn set<S: Slave, T>(
     set_all: impl FnOnce(&mut S, &[ValueReference], &[T], bool) -> Result<(), Failure>,
 ) -> Status {
     with::<S>(c, func, allowed::SET, |i| {
-        let (vrs, vals) = (slice(vr, n, "vr")?, slice(value, n, "value")?);
+        let (vrs, vals) = (slice(vr, n, i.arg("vr"))?, slice(value, n, i.arg("value"))?);
         let running = allowed::RUNNING & i.state as u32 != 0;
         set_all(&mut i.slave, vrs, vals, running)?;
         Ok(Status::Ok)
@@ -342,8 +342,8 @@ pub unsafe fn get_string<S: Slave>(
     value: *mut *const c_char,
 ) -> Status {
     with::<S>(c, "fmi2GetString", allowed::GET, |i| {
-        let vrs = slice(vr, n, "vr")?;
-        let out = slice_mut(value, n, "value")?;
+        let vrs = slice(vr, n, i.arg("vr"))?;
+        let out = slice_mut(value, n, i.arg("value"))?;
         let texts = vrs
             .iter()
             .map(|&r| i.slave.get_string(r))
@@ -367,7 +367,7 @@ pub unsafe fn set_string<S: Slave>(
     value: *const *const c_char,
 ) -> Status {
     with::<S>(c, "fmi2SetString", allowed::SET, |i| {
-        let (vrs, ptrs) = (slice(vr, n, "vr")?, slice(value, n, "value")?);
+        let (vrs, ptrs) = (slice(vr, n, i.arg("vr"))?, slice(value, n, i.arg("value"))?);
         let mut texts = Vec::with_capacity(n);
         for (&r, &p) in vrs.iter().zip(ptrs) {
             if p.is_null() {
@@ -549,9 +549,9 @@ pub unsafe fn set_real_input_derivatives<S: Slave>(
                     .into(),
             ));
         }
-        let vrs = slice(vr, n, "vr")?;
+        let vrs = slice(vr, n, i.arg("vr"))?;
         let orders = slice(order, n, "order")?;
-        let values = slice(value, n, "value")?;
+        let values = slice(value, n, i.arg("value"))?;
         i.slave.set_real_input_derivatives(vrs, orders, values)?;
         Ok(Status::Ok)
     })

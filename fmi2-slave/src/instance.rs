@@ -89,6 +89,18 @@ pub fn fmi3_name(fmi2: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
+/// The FMI 3.0 name of an argument that FMI 2.0 names `fmi2` (messages only).
+pub fn fmi3_arg(fmi2: &'static str) -> &'static str {
+    match fmi2 {
+        "vr" => "valueReferences",
+        "value" => "values",
+        "nx" => "nContinuousStates",
+        "x" => "continuousStates",
+        "ni" => "nEventIndicators",
+        other => other,
+    }
+}
+
 pub fn error(message: String) -> Failure {
     Failure {
         status: Status::Error,
@@ -176,6 +188,15 @@ impl<S: Slave> Instance<S> {
             fmi3_name(func)
         } else {
             func.into()
+        }
+    }
+
+    /// An argument's name as the master's standard names it (for messages).
+    pub fn arg(&self, fmi2: &'static str) -> &'static str {
+        if self.fmi3 {
+            fmi3_arg(fmi2)
+        } else {
+            fmi2
         }
     }
 

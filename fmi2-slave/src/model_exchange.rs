@@ -131,10 +131,11 @@ pub unsafe fn set_time<S: Slave>(c: Component, time: f64) -> Status {
 
 pub unsafe fn set_continuous_states<S: Slave>(c: Component, x: *const f64, nx: usize) -> Status {
     with_me::<S>(c, "fmi2SetContinuousStates", allowed::CONT, |i| {
-        sized(nx, S::N_STATES, "nx")?;
-        let x = slice(x, nx, "x")?;
+        sized(nx, S::N_STATES, i.arg("nx"))?;
+        let x = slice(x, nx, i.arg("x"))?;
         if let Some(k) = x.iter().position(|v| !v.is_finite()) {
-            return Err(error(format!("x[{k}] = {}: must be finite", x[k])));
+            let name = i.arg("x");
+            return Err(error(format!("{name}[{k}] = {}: must be finite", x[k])));
         }
         i.slave.me_set_states(x)?;
         Ok(Status::Ok)
@@ -147,11 +148,11 @@ unsafe fn get_array<S: Slave>(
     func: &str,
     p: *mut f64,
     n: usize,
-    (expected, what): (usize, &str),
+    (expected, what): (usize, &'static str),
     get: impl FnOnce(&mut S, &mut [f64]) -> Result<(), Failure>,
 ) -> Status {
     with_me::<S>(c, func, allowed::ME_GET, |i| {
-        sized(n, expected, what)?;
+        sized(n, expected, i.arg(what))?;
         let out = slice_mut(p, n, "the array")?;
         get(&mut i.slave, out)?;
         Ok(Status::Ok)

@@ -8,7 +8,8 @@ variable table as the FMI 2.0 FMU, with an FMI 3.0 modelDescription.
   the reference (scene_compare, the same bounds as test_scenes.py).
 - Model Exchange through FMI 3.0: tests/python/test_model_exchange.py runs its CVode scenes on
   both FMUs.
-- The FMI 3.0 functions answer bad calls with fmi3Error and a message naming the fmi3 function.
+- The FMI 3.0 functions answer bad calls with fmi3Error and a message naming the fmi3 function
+  and its arguments by their FMI 3.0 names.
 """
 
 import ctypes
@@ -140,6 +141,40 @@ def test_bad_calls_name_the_fmi3_function(unzip3, md3):
     bad = (fmi3Float64 * 1)(-1.0)
     assert lib.fmi3SetFloat64(f.fmu.component, mu, 1, bad, 1) == 3
     assert any("mu" in m and "-1" in m for m in f.errors("fmi3SetFloat64")), f.messages
+
+
+def test_bad_arguments_have_their_fmi3_names(unzip3, md3):
+    """The bodies are shared with FMI 2.0; an FMI 3.0 master reads FMI 3.0's argument names."""
+    f = Logged(unzip3, md3, cls=FMU3Model)
+    f.fmu.enterInitializationMode(startTime=0.0)
+    f.fmu.exitInitializationMode()
+    f.fmu.updateDiscreteStates()
+    f.fmu.enterContinuousTimeMode()
+    lib = f.fmu.dll
+    x = (fmi3Float64 * 9)(*([0.0] * 9))
+    assert lib.fmi3SetContinuousStates(f.fmu.component, x, 9) == 3
+    assert any("nContinuousStates = 9: the FMU has 8" in m
+               for m in f.errors("fmi3SetContinuousStates")), f.messages
+    f = Logged(unzip3, md3, cls=FMU3Model)
+    f.fmu.enterInitializationMode(startTime=0.0)
+    f.fmu.exitInitializationMode()
+    f.fmu.updateDiscreteStates()
+    f.fmu.enterContinuousTimeMode()
+    lib = f.fmu.dll
+    x = (fmi3Float64 * 8)(*([float("nan")] + [0.0] * 7))
+    assert lib.fmi3SetContinuousStates(f.fmu.component, x, 8) == 3
+    assert any("continuousStates[0] = NaN" in m
+               for m in f.errors("fmi3SetContinuousStates")), f.messages
+    z = (fmi3Float64 * 3)()
+    assert lib.fmi3GetEventIndicators(f.fmu.component, z, 3) == 3
+    assert any("nEventIndicators = 3: the FMU has 32" in m
+               for m in f.errors("fmi3GetEventIndicators")), f.messages
+    f = Logged(unzip3, md3)
+    f.fmu.enterInitializationMode(startTime=0.0)
+    out = (fmi3Float64 * 1)()
+    assert f.fmu.dll.fmi3GetFloat64(f.fmu.component, None, 1, out, 1) == 3
+    assert any(m.startswith("fmi3GetFloat64: valueReferences: null pointer")
+               for m in f.errors("fmi3GetFloat64")), f.messages
 
 
 def test_co_simulation_equals_fmi2_bit_for_bit(fmu_path, fmu3_path):
