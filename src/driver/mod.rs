@@ -459,7 +459,7 @@ fn hermite_minimum(m0: f64, d0: f64, m1: f64, d1: f64) -> Option<(f64, f64)> {
     let mut consider = |s: f64| {
         if s > 0.0 && s < 1.0 && b + 2.0 * a * s > 0.0 {
             let v = h(s);
-            if best.map_or(true, |(_, w)| v < w) {
+            if best.is_none_or(|(_, w)| v < w) {
                 best = Some((s, v));
             }
         }
@@ -695,7 +695,7 @@ impl<S: System + Clone + 'static> Driver<S> {
                 });
             }
             self.observe_to(sys, self.method.t())?;
-            if self.step_limit.is_nan() || self.stats.steps % STEP_LIMIT_AGE == 0 {
+            if self.step_limit.is_nan() || self.stats.steps.is_multiple_of(STEP_LIMIT_AGE) {
                 let explicit = matches!(self.method, Method::Dopri5(_));
                 self.step_limit = sys.max_step(self.method.y(), explicit);
             }
@@ -835,7 +835,7 @@ impl<S: System + Clone + 'static> Driver<S> {
             for &(t, m) in samples.iter().filter(|p| p.0.is_finite()) {
                 if m < 0.0 {
                     let t = self.root(sys, i, a, fa, t, m);
-                    if best.map_or(true, |e| t < e.t) {
+                    if best.is_none_or(|e| t < e.t) {
                         best = Some(PendingEvent { t, index: i });
                     }
                     break;

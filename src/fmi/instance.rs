@@ -117,7 +117,7 @@ impl Slave for SpurGearMesh {
         stop: Option<f64>,
     ) -> Result<(), Failure> {
         if let Some(t) = tol {
-            if !(t >= 1e-14 && t <= 0.1) {
+            if !(1e-14..=0.1).contains(&t) {
                 return Err(error(format!("tolerance = {t}: must lie in [1e-14, 0.1]")));
             }
         }

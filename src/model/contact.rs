@@ -141,7 +141,7 @@ impl EventFn {
                     _ => EventFn::ReliefB(k),
                 }
             }
-            i if (i - 3 * SLOTS) % 2 == 0 => EventFn::Pen(flank((i - 3 * SLOTS) / 2)),
+            i if (i - 3 * SLOTS).is_multiple_of(2) => EventFn::Pen(flank((i - 3 * SLOTS) / 2)),
             i => EventFn::Rel(flank((i - 3 * SLOTS) / 2)),
         }
     }

@@ -270,7 +270,7 @@ mod tests {
                 (lo.min(e), hi.max(e))
             });
             // B still at theta_B = 0 contributes a constant.
-            let b_part = -1e-6 * (d.alpha_w - f.dir() * -1.0).sin();
+            let b_part = -1e-6 * (d.alpha_w + f.dir()).sin();
             // Sampling every 0.1 degree misses each peak by at most ecc (1 - cos 0.05 deg).
             let miss = 3e-6 * (1.0 - (std::f64::consts::PI / 3600.0).cos()) + 1e-20;
             assert!(((hi - lo) / 2.0 - 3e-6).abs() <= miss, "{f:?}: {hi} {lo}");
