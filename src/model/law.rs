@@ -4,9 +4,8 @@
 //! one more variant of `Law`.
 
 use super::johnson::{self, OutOfRange};
-use super::lower_branch::LowerBranch;
+use super::lower_branch;
 use super::tooth_structure::StructureLaw;
-use super::ModelError;
 use std::sync::Arc;
 
 pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
@@ -56,8 +55,8 @@ pub trait ContactLaw {
 }
 
 /// Johnson's line contact (paper eq. 5.1) with R = L + delta: independent of the position.
-/// `F = pi b E* delta v(x)`, `x = e delta/(4R)`, with v from the shared table of W_-1
-/// (`LowerBranch`).
+/// `F = pi b E* delta v(x)`, `x = e delta/(4R)`, with v from the table of W_-1
+/// (`lower_branch::v`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JohnsonLaw {
     pub l: f64,
@@ -65,18 +64,16 @@ pub struct JohnsonLaw {
     pub width: f64,
     /// pi E* b.
     p: f64,
-    branch: &'static LowerBranch,
 }
 
 impl JohnsonLaw {
-    pub fn new(l: f64, e_star: f64, width: f64) -> Result<JohnsonLaw, ModelError> {
-        Ok(JohnsonLaw {
+    pub fn new(l: f64, e_star: f64, width: f64) -> JohnsonLaw {
+        JohnsonLaw {
             l,
             e_star,
             width,
             p: std::f64::consts::PI * e_star * width,
-            branch: LowerBranch::shared()?,
-        })
+        }
     }
 }
 
@@ -92,7 +89,7 @@ impl ContactLaw for JohnsonLaw {
         }
         // NaN x fails the comparison too.
         let v = if x < 1.0 / std::f64::consts::E {
-            self.branch.v(x)
+            lower_branch::v(x)
         } else {
             f64::NAN
         };
@@ -216,7 +213,7 @@ mod tests {
     #[test]
     fn johnson_through_the_table_matches_the_closed_form() {
         let (l, e_star, width) = (0.1714599985155, 115384615384.615, 0.02);
-        let law = JohnsonLaw::new(l, e_star, width).unwrap();
+        let law = JohnsonLaw::new(l, e_star, width);
         // With R = L + delta the range ends where delta = 4(L + delta)/e^2.
         let e2 = std::f64::consts::E * std::f64::consts::E;
         let limit = 4.0 * l / (e2 - 4.0);

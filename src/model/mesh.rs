@@ -333,7 +333,7 @@ impl Mesh {
             geo.warnings.extend(law.warnings(&geo));
             ContactModel::Compliant(Law::Structure(Arc::new(law)))
         } else {
-            ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.e_star, p.width)?))
+            ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.e_star, p.width)))
         };
         let dev = Deviations::from_params(p, &geo)?.map(Arc::new);
         if dev.is_some() && p.contact_model == 2 {

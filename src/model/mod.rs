@@ -1,12 +1,14 @@
 //! The gear-mesh model: pure Rust, no FMI. Parameters -> geometry -> contact objects -> forces
 //! -> right-hand side. The integration driver (`crate::driver`) advances it.
 
+pub mod chebyshev;
 pub mod contact;
 pub mod deviations;
 pub mod geometry;
 pub mod johnson;
 pub mod law;
 pub mod lower_branch;
+pub mod lower_branch_fit;
 pub mod mesh;
 pub mod piecewise;
 pub mod rig;

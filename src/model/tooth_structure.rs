@@ -15,7 +15,7 @@
 use super::geometry::Geometry;
 use super::johnson::OutOfRange;
 use super::law::ContactLaw;
-use super::lower_branch::LowerBranch;
+use super::lower_branch;
 use super::piecewise::PiecewiseFit;
 use super::ModelError;
 use crate::variables::Params;
@@ -322,8 +322,6 @@ pub struct StructureLaw {
     /// g(s_A) = C(s_mid) / C(s_A): the force needs x = pi b E* delta / C, and a table of 1/C
     /// gives it without an exp (or a log) per pair.
     pub inv_c: PiecewiseFit,
-    /// v(x) = -1/W_{-1}(-x): F = pi b E* delta v(x).
-    branch: &'static LowerBranch,
     /// pi b E*.
     p: f64,
     /// ln C at the segment's middle.
@@ -363,7 +361,6 @@ impl StructureLaw {
         Ok(StructureLaw {
             structure,
             inv_c,
-            branch: LowerBranch::shared()?,
             p,
             ln_c_mid,
             x_scale: p * (-ln_c_mid).exp(),
@@ -415,7 +412,7 @@ impl StructureLaw {
         }
         let x = pen.xd * g;
         let v = if x < 1.0 / std::f64::consts::E {
-            self.branch.v(x)
+            lower_branch::v(x)
         } else {
             f64::NAN
         };
