@@ -145,26 +145,27 @@ def test_bad_calls_name_the_fmi3_function(unzip3, md3):
 
 def test_bad_arguments_have_their_fmi3_names(unzip3, md3):
     """The bodies are shared with FMI 2.0; an FMI 3.0 master reads FMI 3.0's argument names."""
-    f = Logged(unzip3, md3, cls=FMU3Model)
-    f.fmu.enterInitializationMode(startTime=0.0)
-    f.fmu.exitInitializationMode()
-    f.fmu.updateDiscreteStates()
-    f.fmu.enterContinuousTimeMode()
-    lib = f.fmu.dll
+
+    def continuous_time():
+        """A fresh Model Exchange instance in Continuous-Time Mode, and its library."""
+        f = Logged(unzip3, md3, cls=FMU3Model)
+        f.fmu.enterInitializationMode(startTime=0.0)
+        f.fmu.exitInitializationMode()
+        f.fmu.updateDiscreteStates()
+        f.fmu.enterContinuousTimeMode()
+        return f, f.fmu.dll
+
+    f, lib = continuous_time()
     x = (fmi3Float64 * 9)(*([0.0] * 9))
     assert lib.fmi3SetContinuousStates(f.fmu.component, x, 9) == 3
     assert any("nContinuousStates = 9: the FMU has 8" in m
                for m in f.errors("fmi3SetContinuousStates")), f.messages
-    f = Logged(unzip3, md3, cls=FMU3Model)
-    f.fmu.enterInitializationMode(startTime=0.0)
-    f.fmu.exitInitializationMode()
-    f.fmu.updateDiscreteStates()
-    f.fmu.enterContinuousTimeMode()
-    lib = f.fmu.dll
+    f, lib = continuous_time()
     x = (fmi3Float64 * 8)(*([float("nan")] + [0.0] * 7))
     assert lib.fmi3SetContinuousStates(f.fmu.component, x, 8) == 3
     assert any("continuousStates[0] = NaN" in m
                for m in f.errors("fmi3SetContinuousStates")), f.messages
+    f, lib = continuous_time()
     z = (fmi3Float64 * 3)()
     assert lib.fmi3GetEventIndicators(f.fmu.component, z, 3) == 3
     assert any("nEventIndicators = 3: the FMU has 32" in m
