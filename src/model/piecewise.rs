@@ -6,7 +6,7 @@
 //! pieces are halved until the relative error found midway between the nodes (the Chebyshev
 //! extrema, where it peaks) on every piece is below the tolerance.
 
-pub use super::chebyshev::{fit_piece, piece_error, polynomial};
+use super::chebyshev::{fit_piece, piece_error, polynomial};
 use super::ModelError;
 
 #[derive(Clone, Debug, PartialEq)]
