@@ -59,10 +59,10 @@ pub trait ContactLaw {
 /// (`lower_branch::v`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JohnsonLaw {
-    pub l: f64,
-    pub e_star: f64,
-    pub width: f64,
-    /// pi E* b.
+    l: f64,
+    e_star: f64,
+    width: f64,
+    /// pi E* b, derived from the three above: they are private so that it cannot go stale.
     p: f64,
 }
 
