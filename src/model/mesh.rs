@@ -207,8 +207,10 @@ pub struct MeshConfig {
 /// the state of its contact objects, modes and accounts, which an FMU state saves.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Mesh {
+    /// Shared, never changed after construction: fmi2DoStep copies the simulation before every
+    /// step that integrates, and copying the configuration was a sixth of that copy.
     #[serde(skip)]
-    pub cfg: MeshConfig,
+    pub cfg: Arc<MeshConfig>,
     pub loads: Loads,
     /// s_A = sigma + dir rAb theta_A for each slot.
     pub sigma: [f64; SLOTS],
@@ -360,7 +362,7 @@ impl Mesh {
             + geo.r_bb * geo.r_bb / p.J_B
             + slider.map_or(0.0, |s| sin_a * sin_a / s.m);
         let mut mesh = Mesh {
-            cfg: MeshConfig {
+            cfg: Arc::new(MeshConfig {
                 width: p.width,
                 j_a: p.J_A,
                 j_b: p.J_B,
@@ -376,7 +378,7 @@ impl Mesh {
                 geo,
                 present,
                 dev,
-            },
+            }),
             loads: Loads::new(p, inputs),
             sigma,
             sign: [true; N_EVENTS],
