@@ -638,6 +638,8 @@ impl SpurGearMesh {
         local: impl Fn(&crate::variables::Locals) -> Option<T>,
     ) -> Result<T, Failure> {
         let got = match v.info().causality {
+            // What a master reads after every step, read in place: `outputs()` is out of line.
+            Causality::Output if self.fresh && !outputs::is_energy(v) => output(&self.outputs),
             Causality::Parameter => param(&self.snap.params),
             Causality::Input => input(&self.snap.inputs),
             Causality::Output if outputs::is_energy(v) => output(self.energy_outputs()?),
@@ -703,16 +705,26 @@ impl SpurGearMesh {
     }
 }
 
+/// Inlined into every get and set of a variable; the message is built out of line.
+#[inline(always)]
 fn lookup(vr: u32, ty: VarType) -> Result<Var, Failure> {
-    let v = Var::from_vr(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
-    let info = v.info();
-    if info.ty != ty {
-        return Err(error(format!(
-            "{} (value reference {vr}) is {:?}, not {ty:?}",
-            info.name, info.ty
-        )));
+    match Var::from_vr(vr) {
+        Some(v) if v.info().ty == ty => Ok(v),
+        _ => Err(lookup_failure(vr, ty)),
     }
-    Ok(v)
+}
+
+#[cold]
+#[inline(never)]
+fn lookup_failure(vr: u32, ty: VarType) -> Failure {
+    match Var::from_vr(vr) {
+        None => error(format!("unknown value reference {vr}")),
+        Some(v) => error(format!(
+            "{} (value reference {vr}) is {:?}, not {ty:?}",
+            v.info().name,
+            v.info().ty
+        )),
+    }
 }
 
 /// Checks that a variable may be set now to the value shown (for the message).
