@@ -107,7 +107,7 @@ impl System for Toy {
         if i == 0 {
             // On the floor exactly, bouncing back.
             y[0] = 0.0;
-            y[1] = -e * y[1];
+            y[1] *= -e;
         }
         Ok(Hit {
             what: if i == 0 { "floor" } else { "ceiling" },

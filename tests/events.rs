@@ -36,7 +36,7 @@ fn a_graze_into_the_forward_flank_is_located() {
                 ..Params::default()
             };
             let g = Geometry::new(&base).unwrap();
-            let a = g.r_ab * -1.0 / base.J_A;
+            let a = -g.r_ab / base.J_A;
             let v0 = (2.0 * a.abs() * (depth - base.dte_start)).sqrt();
             let w_a = 10.0;
             let p = Params {

@@ -22,6 +22,7 @@
 //!  * no panic reaches the boundary (the FMU reports a caught panic as an internal error: that
 //!    counts as a failure here), no call takes more than CALL_LIMIT, nothing hangs (a watchdog
 //!    aborts the process after HANG_LIMIT without progress).
+//!
 //! The FMI state of an instance is read back after every call from its own serialized FMU state
 //! (header, then the state word that starts the payload: src/fmi/fmu_state.rs), so the model is
 //! checked against the instance, not merely against return codes.
@@ -62,7 +63,7 @@ use std::time::{Duration, Instant};
 /// machine and logging only, and are not stepped.
 fn strict() -> bool {
     static S: OnceLock<bool> = OnceLock::new();
-    *S.get_or_init(|| std::env::var_os("FMI_FUZZ_STRICT").map_or(true, |v| v != "0"))
+    *S.get_or_init(|| std::env::var_os("FMI_FUZZ_STRICT").is_none_or(|v| v != "0"))
 }
 
 /// A single call taking longer than this fails the property.
@@ -1752,7 +1753,8 @@ impl Harness {
                 m.stop
             );
         }
-        if !m.known && !(h.is_finite() && h > 0.0) {
+        let h_valid = h.is_finite() && h > 0.0;
+        if !m.known && !h_valid {
             check!(st == Status::Error, "fmi2DoStep(h = {h}) gave {st:?}");
         }
         match st {

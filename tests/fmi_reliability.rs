@@ -42,8 +42,11 @@ fn output_vrs() -> Vec<u32> {
 
 // ---- 3. threads and instances ----------------------------------------------------------------
 
+/// Start values by name: Reals and Integers.
+type Starts = (Vec<(&'static str, f64)>, Vec<(&'static str, i32)>);
+
 /// Instance k of the thread test: the paper scene with its own load, damping and method.
-fn thread_scene(k: usize) -> (Vec<(&'static str, f64)>, Vec<(&'static str, i32)>) {
+fn thread_scene(k: usize) -> Starts {
     let reals = vec![
         ("tau_A", 60.0 + 5.0 * k as f64),
         ("c_load", 1.0 + 0.25 * k as f64),
@@ -154,8 +157,8 @@ fn sixteen_instances_in_eight_threads_are_bit_identical_to_sequential() {
 fn ten_thousand_instantiate_free_cycles_keep_memory_flat() {
     let _s = serial();
     let cycle = |k: usize| {
-        let f = Fmu::try_new("cycle", k % 3 == 0).unwrap();
-        if k % 4 == 0 {
+        let f = Fmu::try_new("cycle", k.is_multiple_of(3)).unwrap();
+        if k.is_multiple_of(4) {
             f.initialize(PAPER_SCENE, &[]);
             for j in 0..3 {
                 assert_eq!(f.do_step(j as f64 * 1e-4, 1e-4), Status::Ok);

@@ -248,7 +248,7 @@ fn judge(case: &Case) -> (bool, String) {
     if o.status != Status::Ok {
         let named = case
             .expect_error
-            .map_or(false, |word| o.log.iter().any(|l| l.contains(word)));
+            .is_some_and(|word| o.log.iter().any(|l| l.contains(word)));
         let msg = o.log.last().cloned().unwrap_or_default();
         let ok = named && finite && matches!(o.status, Status::Error | Status::Discard);
         return (

@@ -153,6 +153,9 @@ pub enum ContactModel {
     Rigid { restitution: f64, two_sided: bool },
 }
 
+/// Normal, friction and elastic force of the pair each slot holds.
+type SlotForces = [(f64, f64, f64); SLOTS];
+
 /// What the mesh applies to the wheels and to B's bearing, interface-frame torques.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MeshLoad {
@@ -644,7 +647,7 @@ impl Mesh {
     fn compliant_load(
         &self,
         y: &State,
-        mut pairs: Option<&mut [(f64, f64, f64); SLOTS]>,
+        mut pairs: Option<&mut SlotForces>,
     ) -> Result<MeshLoad, LawOutOfRange> {
         let law = self.compliance().expect("compliant");
         let w_b = self.w_b(y);
@@ -687,6 +690,8 @@ impl Mesh {
 
     /// The pairs of flank f under a law that depends on where each sits: a force each, and the
     /// work of the changing stiffness (kept out of the common path's loop).
+    // What the caller holds is passed on, not looked up again in the right-hand side.
+    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn position_dependent_pairs(
         &self,
@@ -696,7 +701,7 @@ impl Mesh {
         y: &State,
         w_b: f64,
         m: &mut MeshLoad,
-        pairs: &mut Option<&mut [(f64, f64, f64); SLOTS]>,
+        pairs: &mut Option<&mut SlotForces>,
     ) -> Result<(), LawOutOfRange> {
         let (delta, ddelta) = self.flank_delta(f, y);
         let (mut slots, mut s_a, mut count) = ([0; 2], [0.0; 2], 0);
@@ -730,7 +735,7 @@ impl Mesh {
         y: &State,
         w_b: f64,
         m: &mut MeshLoad,
-        pairs: &mut Option<&mut [(f64, f64, f64); SLOTS]>,
+        pairs: &mut Option<&mut SlotForces>,
     ) -> Result<(), LawOutOfRange> {
         for k in (0..SLOTS).filter(|&k| self.carrying(k)) {
             let f = slot_flank(k);
@@ -761,7 +766,7 @@ impl Mesh {
         y: &State,
         w_b: f64,
         m: &mut MeshLoad,
-        pairs: &mut Option<&mut [(f64, f64, f64); SLOTS]>,
+        pairs: &mut Option<&mut SlotForces>,
     ) {
         let g = &self.geo;
         let f = slot_flank(k);
@@ -1725,10 +1730,7 @@ impl Mesh {
     }
 
     /// Normal, friction and elastic force of every slot, and the load they make.
-    fn pair_forces(
-        &self,
-        y: &State,
-    ) -> Result<([(f64, f64, f64); SLOTS], MeshLoad), LawOutOfRange> {
+    fn pair_forces(&self, y: &State) -> Result<(SlotForces, MeshLoad), LawOutOfRange> {
         let mut pairs = [(0.0, 0.0, 0.0); SLOTS];
         if !self.rigid() {
             let load = self.compliant_load(y, Some(&mut pairs))?;

@@ -72,11 +72,6 @@ impl PiecewiseFit {
         Ok(PiecewiseFit { spans, error })
     }
 
-    /// The number of polynomial pieces.
-    pub fn len(&self) -> usize {
-        self.spans.iter().map(|s| s.coef.len()).sum()
-    }
-
     #[inline(always)]
     fn span(&self, s: f64) -> &Span {
         self.spans
