@@ -7,7 +7,7 @@
 
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
-use spur_gear_mesh::fmi::outputs::write;
+use spur_gear_mesh::fmi::outputs::{is_energy, write};
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, Status};
 use spur_gear_mesh::variables::{
     Causality, Inputs, Outputs, Params, Var, VarType, GUID, VARIABLES,
@@ -174,7 +174,7 @@ fn main() {
     let vr: Vec<u32> = VARIABLES
         .iter()
         .filter(|v| v.causality == Causality::Output && v.ty == VarType::Real)
-        .filter(|v| !matches!(v.var, Var::E_kin | Var::E_el | Var::energy_residual))
+        .filter(|v| !is_energy(v.var))
         .map(|v| v.vr)
         .collect();
     let mut out = vec![0.0; vr.len()];
