@@ -82,12 +82,15 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         .filter(|v| v.causality == Causality::Parameter)
         .filter(|v| v.geometry.is_none_or(|g| g == p.geometry))
     {
-        let (x, shown) = match (p.get_real(info.var), p.get_integer(info.var)) {
-            (Some(x), _) => (x, x.to_string()),
-            (None, Some(i)) => (i as f64, i.to_string()),
+        // The value is formatted only for a message: on every fmi2SetReal of a parameter the
+        // formatting of all of them was 60 % of this check (callgrind).
+        let (x, int) = match (p.get_real(info.var), p.get_integer(info.var)) {
+            (Some(x), _) => (x, None),
+            (None, Some(i)) => (i as f64, Some(i)),
             _ => continue,
         };
         if let Some(why) = info.range.violation(x) {
+            let shown = int.map_or_else(|| x.to_string(), |i| i.to_string());
             let what = if info.ty == VarType::Integer {
                 format!("{why} ({})", info.description)
             } else {
