@@ -8,6 +8,8 @@ echo "== cargo test (release: the integration tests simulate real scenes)"
 cargo test --workspace --release
 echo "== the diffsol peer benchmark compiles (docs/integrators.md; its own workspace)"
 cargo check -q --all-targets --manifest-path benches/diffsol-peer/Cargo.toml --target-dir target/diffsol-peer
+echo "== the API documentation builds without warnings (units in brackets are not links)"
+RUSTDOCFLAGS="-D warnings" cargo doc -q --workspace --no-deps
 echo "== package the FMU"
 cargo run -q -p fmu-packaging --release
 echo "== memcheck of the C API (valgrind)"

@@ -32,7 +32,7 @@ pub fn release_binary(package: &str) -> Vec<u8> {
     std::fs::read(&so).unwrap_or_else(|e| panic!("reading {}: {e}", so.display()))
 }
 
-/// Writes target/fmu/<model>.fmu with the given files (name in the archive, contents) and
+/// Writes `target/fmu/<model>.fmu` with the given files (name in the archive, contents) and
 /// returns its path. Binaries (.so) are executable.
 pub fn write_fmu(model: &str, files: &[(&str, &[u8])]) -> PathBuf {
     let out_dir = target_dir().join("fmu");

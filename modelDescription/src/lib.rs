@@ -212,6 +212,19 @@ pub fn ident(name: &str) -> String {
     name.replace('(', "_").replace(')', "")
 }
 
+/// A description as rustdoc text: its units in brackets (\[m\]) are not links, and a `<` opens no
+/// HTML tag.
+fn doc_text(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        if matches!(c, '[' | ']' | '<' | '>') {
+            out.push('\\');
+        }
+        out.push(c);
+    }
+    out
+}
+
 /// Shortest text that reads back to the same f64.
 fn format_real(f: f64) -> String {
     let s = format!("{f:?}");
@@ -709,7 +722,13 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     )
     .unwrap();
     for v in &t.vars {
-        writeln!(w, "    /// {}\n    {},", v.description, v.ident()).unwrap();
+        writeln!(
+            w,
+            "    /// {}\n    {},",
+            doc_text(&v.description),
+            v.ident()
+        )
+        .unwrap();
     }
     writeln!(w, "}}").unwrap();
 
@@ -808,12 +827,12 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
             let unit = v
                 .unit
                 .as_deref()
-                .map(|u| format!(" [{u}]"))
+                .map(|u| format!(" \\[{u}\\]"))
                 .unwrap_or_default();
             writeln!(
                 w,
                 "    /// {}{unit}\n    pub {}: {},",
-                v.description,
+                doc_text(&v.description),
                 v.ident(),
                 v.rust_type()
             )

@@ -11,16 +11,16 @@ use std::sync::Arc;
 pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
 
 pub trait ContactLaw {
-    /// Elastic normal force [N] of one pair (whole face width) at penetration delta >= 0, its
+    /// Elastic normal force \[N\] of one pair (whole face width) at penetration delta >= 0, its
     /// contact at s_A on the line of action.
     fn force(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
     /// dF/d(delta) [N/m] at fixed s_A.
     fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
     /// The same from the pair's elastic force F at delta, without solving the law again.
     fn stiffness_at_force(&self, force: f64, delta: f64, s_a: f64) -> f64;
-    /// Elastic energy [J]: the integral of the force from 0 to delta at fixed s_A.
+    /// Elastic energy \[J\]: the integral of the force from 0 to delta at fixed s_A.
     fn energy(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
-    /// dU/ds_A at fixed delta [N], given the pair's elastic force there: 0 unless the law
+    /// dU/ds_A at fixed delta \[N\], given the pair's elastic force there: 0 unless the law
     /// depends on the position. The mesh force acts along the line of action only, so this term
     /// is work done on the pair by its changing stiffness (parametric excitation), booked with
     /// the external work.

@@ -13,7 +13,7 @@ pub struct Slider {
     pub k: f64,
     /// Damping c_S [N s/m].
     pub c: f64,
-    /// Mass m_S moving with B [kg].
+    /// Mass m_S moving with B \[kg\].
     pub m: f64,
 }
 

@@ -8,7 +8,7 @@
 //! - An impact obeys Newton's law on the normal relative speed (`Impact`).
 
 /// A rebound whose free flight would bring the teeth back within this time locks the contact
-/// at once (no Zeno chatter of ever shorter bounces) [s].
+/// at once (no Zeno chatter of ever shorter bounces) \[s\].
 pub const ZENO_FLIGHT_TIME: f64 = 1e-6;
 
 /// Relative speed [m/s] below which a rebound is not resolved in double precision at the

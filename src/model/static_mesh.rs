@@ -10,7 +10,7 @@ use super::law::ContactLaw;
 pub struct StaticPoint {
     /// Position of the mesh cycle: s_A of the pair nearest the segment's start.
     pub s0: f64,
-    /// The shared penetration (the static transmission error) [m].
+    /// The shared penetration (the static transmission error) \[m\].
     pub delta: f64,
     pub pairs: usize,
     /// W / delta and sum dF_i/d(delta) [N/m].

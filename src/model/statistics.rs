@@ -32,7 +32,7 @@ const WEIGHTS: [f64; 5] = [
 
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Statistics {
-    /// stats_start [s].
+    /// stats_start \[s\].
     pub start: f64,
     /// Time covered since stats_start.
     pub duration: f64,

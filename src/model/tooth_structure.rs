@@ -265,7 +265,7 @@ impl Structure {
     }
 }
 
-/// Force [N] of one pair at penetration delta >= 0 given ln C: `y ln y = -x` with y = F/C and
+/// Force \[N\] of one pair at penetration delta >= 0 given ln C: `y ln y = -x` with y = F/C and
 /// x = pi b E* delta / C, so F = -pi b E* delta / W_{-1}(-x); None past the law's range x < 1/e.
 /// Straight from `lambert_w`: the check of the law's tables.
 pub fn force(delta: f64, ln_c: f64, width: f64, e_star: f64) -> Option<f64> {
