@@ -1,6 +1,7 @@
-//! The integration driver on toy problems with known answers (issue 12, point 3): Dormand-Prince
-//! on a harmonic oscillator, and event location on a bouncing ball with analytic impact times
-//! and on a ball whose flight grazes a ceiling. The driver sees them only through `System`,
+//! The integration driver on toy problems with known answers (issue 12, point 3): both explicit
+//! methods (Dormand-Prince 5(4) and DOP853, solvers 1 and 3) on a harmonic oscillator, and event
+//! location on a bouncing ball with analytic impact times and on a ball whose flight grazes a
+//! ceiling. The driver sees them only through `System`,
 //! with their own state (two components), events (two) and error types: nothing of the gear.
 
 use spur_gear_mesh::driver::{Driver, EventOutcome, Method, System, Tolerance};
@@ -119,7 +120,7 @@ impl System for Toy {
     /// As the gear limits a step to a fraction of a tooth pitch: a step far longer than the
     /// flights would locate their ends on an interpolant whose terms are large (a 1000 s step of
     /// free fall spans 5e6 m), losing digits to rounding.
-    fn max_step(&self, _y: &State, _explicit: bool) -> f64 {
+    fn max_step(&self, _y: &State, _stability: Option<f64>) -> f64 {
         0.1
     }
     fn dim(&self) -> usize {
@@ -127,24 +128,26 @@ impl System for Toy {
     }
 }
 
-fn driver(y0: State, rtol: f64) -> Driver<Toy> {
+/// The explicit methods: Dormand-Prince 5(4) and DOP853.
+const SOLVERS: [i32; 2] = [1, 3];
+
+fn driver(solver: i32, y0: State, rtol: f64) -> Driver<Toy> {
     let tol = Tolerance {
         rtol,
         atol: [rtol; 2],
     };
-    Driver::new(Method::from_solver(1), tol, 0.0, y0)
+    Driver::new(Method::from_solver(solver), tol, 0.0, y0)
 }
 
-/// Dormand-Prince keeps each step's local error below rel_tol times the state (the error
-/// estimate is that of the embedded 4th-order solution, larger than the 5th-order one it
-/// keeps). The oscillator's flow is a rotation in (x, v/omega), so local errors add without
+/// Each method keeps its step's local error below rel_tol times the state (the estimate is
+/// that of an embedded lower-order solution, larger than the error of the one it keeps). The oscillator's flow is a rotation in (x, v/omega), so local errors add without
 /// growth: after N steps the error is at most N rel_tol times the amplitude.
 #[test]
 fn harmonic_oscillator_against_cos() {
     let omega = 2.0 * std::f64::consts::PI;
-    for rtol in [1e-6, 1e-10] {
+    for (solver, rtol) in SOLVERS.iter().flat_map(|&s| [(s, 1e-6), (s, 1e-10)]) {
         let mut sys = Toy::Oscillator { omega };
-        let mut d = driver([1.0, 0.0], rtol);
+        let mut d = driver(solver, [1.0, 0.0], rtol);
         for k in 1..=100 {
             let t = 0.1 * k as f64;
             d.advance(&mut sys, t, &mut |_, _| {}).unwrap();
@@ -152,7 +155,7 @@ fn harmonic_oscillator_against_cos() {
             let bound = (d.stats.steps as f64 + 1.0) * rtol * 2.0;
             assert!(
                 (y[0] - (omega * t).cos()).abs() <= bound,
-                "rtol {rtol}, t {t}: {}",
+                "solver {solver}, rtol {rtol}, t {t}: {}",
                 y[0]
             );
             assert!(
@@ -165,19 +168,19 @@ fn harmonic_oscillator_against_cos() {
 }
 
 /// Dropped from 1 m: the first impact at sqrt(2/g), each rebound flies 2 e v_k / g with v_k the
-/// impact speed, v_{k+1} = e v_k. Free flight is a parabola, which Dormand-Prince integrates
-/// exactly, so every impact is located to rounding at any tolerance: a few ulp of t (1e-15 s),
+/// impact speed, v_{k+1} = e v_k. Free flight is a parabola, which both methods and their dense
+/// outputs integrate exactly, so every impact is located to rounding at any tolerance: a few ulp of t (1e-15 s),
 /// which each bounce amplifies by 1 + 2e (a late impact rebounds faster), so 1e-12 s after six.
 #[test]
 fn bouncing_ball_impacts_at_the_analytic_times() {
-    for rtol in [1e-3, 1e-8] {
+    for (solver, rtol) in SOLVERS.iter().flat_map(|&s| [(s, 1e-3), (s, 1e-8)]) {
         let e = 0.8;
         let mut sys = Toy::Ball {
             e,
             ceiling: None,
             above: false,
         };
-        let mut d = driver([1.0, 0.0], rtol);
+        let mut d = driver(solver, [1.0, 0.0], rtol);
         let mut hits = Vec::new();
         d.advance(&mut sys, 3.0, &mut |t, r| hits.push((t, r.what)))
             .unwrap();
@@ -188,7 +191,7 @@ fn bouncing_ball_impacts_at_the_analytic_times() {
             assert_eq!(*what, "floor");
             assert!(
                 (th - t).abs() <= 1e-12,
-                "rtol {rtol}, impact {k}: {th} vs {t}"
+                "solver {solver}, rtol {rtol}, impact {k}: {th} vs {t}"
             );
             v *= e;
             t += 2.0 * v / G;
@@ -201,7 +204,10 @@ fn bouncing_ball_impacts_at_the_analytic_times() {
 /// (0.1 s against 29 us above the ceiling); both crossings are located at the parabola's roots.
 #[test]
 fn a_ceiling_grazed_by_1_nm_is_located() {
-    for (reach, touches) in [(-1e-9, false), (1e-9, true)] {
+    for (solver, (reach, touches)) in SOLVERS
+        .iter()
+        .flat_map(|&s| [(s, (-1e-9, false)), (s, (1e-9, true))])
+    {
         let apex = 1.0 + reach;
         let v0 = (2.0 * G * apex).sqrt();
         let mut sys = Toy::Ball {
@@ -209,7 +215,7 @@ fn a_ceiling_grazed_by_1_nm_is_located() {
             ceiling: Some(1.0),
             above: false,
         };
-        let mut d = driver([0.0, v0], 1e-6);
+        let mut d = driver(solver, [0.0, v0], 1e-6);
         let mut hits = Vec::new();
         d.advance(&mut sys, v0 / G * 1.5, &mut |t, r| hits.push((t, r.what)))
             .unwrap();
@@ -219,12 +225,15 @@ fn a_ceiling_grazed_by_1_nm_is_located() {
             .map(|(t, _)| *t)
             .collect();
         if !touches {
-            assert!(crossings.is_empty(), "reach {reach}: {hits:?}");
+            assert!(
+                crossings.is_empty(),
+                "solver {solver}, reach {reach}: {hits:?}"
+            );
             continue;
         }
         let half = (2.0 * G * reach).sqrt() / G;
         let (up, down) = (v0 / G - half, v0 / G + half);
-        assert_eq!(crossings.len(), 2, "{hits:?}");
+        assert_eq!(crossings.len(), 2, "solver {solver}: {hits:?}");
         // A graze is ill-conditioned: a rounding of h (a few ulp of 1 m) moves the crossing by
         // that over the crossing speed sqrt(2 g reach) = 1.4e-4 m/s.
         let bound = 8.0 * f64::EPSILON / (2.0 * G * reach).sqrt();

@@ -395,7 +395,7 @@ fn op() -> impl Strategy<Value = Op> {
         4 => s.clone().prop_map(Op::ExitInit),
         1 => s.clone().prop_map(Op::Terminate),
         2 => s.clone().prop_map(Op::Reset),
-        4 => (s.clone(), 1i32..=2, prop::option::of(prop_oneof![Just(0.01), Just(0.1), Just(1.0)]))
+        4 => (s.clone(), 1i32..=3, prop::option::of(prop_oneof![Just(0.01), Just(0.1), Just(1.0)]))
             .prop_map(|(s, solver, stop)| Op::PaperScene(s, solver, stop)),
         6 => (s.clone(), prop::collection::vec((vr(), real()), 0..4), prop::bool::weighted(0.05))
             .prop_map(|(s, v, n)| Op::SetReal(s, v, n)),

@@ -54,7 +54,7 @@ fn thread_scene(k: usize) -> Starts {
         ("w_B_start", 100.0 / 1.5),
         ("chi", 5.0 + k as f64),
     ];
-    (reals, vec![("solver", 1 + (k % 2) as i32)])
+    (reals, vec![("solver", 1 + (k % 3) as i32)])
 }
 
 const THREAD_STEPS: usize = 2000;
@@ -238,7 +238,7 @@ fn state_continues_bit_identically_in_another_process() {
     let _s = serial();
     let dir = std::env::temp_dir();
     let vrs = output_vrs();
-    for solver in [1, 2] {
+    for solver in [1, 2, 3] {
         let f = Fmu::new("parent");
         f.initialize(PAPER_SCENE, &[("solver", solver)]);
         let mut t = 0.0;

@@ -60,8 +60,8 @@ fn documentation(t: &Table) -> String {
          <code>delta = N/(pi E*) [ln(4 pi E* (rho_A+rho_B)/N) - 1]</code>, solved in closed form with the lower branch \
          of the Lambert W function. Hunt-Crossley damping <code>(1 + chi d(delta)/dt)</code> and regularized Coulomb \
          friction <code>mu tanh(v_s/v_reg)</code> are added. All angles, speeds and torques are positive in the forward \
-         drive sense. Inside <code>fmi2DoStep</code> an adaptive integrator (explicit Dormand-Prince 5(4) or implicit \
-         BDF from diffsol, parameter <code>solver</code>) locates every tooth-pair switch, contact onset, separation and \
+         drive sense. Inside <code>fmi2DoStep</code> an adaptive integrator (explicit Dormand-Prince 5(4), implicit \
+         BDF from diffsol, or explicit DOP853 for tight tolerances, parameter <code>solver</code>) locates every tooth-pair switch, contact onset, separation and \
          release, so the right-hand side is smooth inside each internal step.</p>\n\
          <p>The defaults run the paper's rig: drive <code>tau_A</code> = 100 N.m, load <code>c_load</code> = 2 N.m.s/rad, \
          running start at 100 rad/s, light damping <code>chi</code> = 10 s/m. A run with no start values shows the mesh at \

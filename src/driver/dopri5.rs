@@ -37,6 +37,12 @@ const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
+/// The h omega that steps may reach on an undamped oscillation (`System::max_step`). The
+/// stability function grows slowly along the imaginary axis, |R(iy)| - 1 = 1.4e-6 at y = 1 and
+/// 0.03 at y = 2, so near an equilibrium, where the error estimate sees nothing, an oscillation
+/// grows by at most a few per cent per step.
+pub const STABILITY: f64 = 2.0;
+
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Dopri5<Y> {
     pub t: f64,
@@ -97,14 +103,9 @@ impl<Y: Vector> Dopri5<Y> {
         self.t = t;
         self.t_prev = t;
         self.y = *y;
-        sys.rhs(y, &mut self.k1).map_err(StepError::Law)?;
-        stats.rhs_evals += 1;
+        (self.k1, self.h) = super::explicit_start(sys, y, h_hint, 5, STABILITY, tol, stats)?;
         self.rcont = [*y, Y::zeros(), Y::zeros(), Y::zeros(), Y::zeros()];
         self.facold = 1e-4;
-        self.h = match h_hint {
-            Some(h) => h,
-            None => super::initial_step(sys, y, &self.k1, 5, tol, stats)?,
-        };
         Ok(())
     }
 

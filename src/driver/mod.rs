@@ -9,6 +9,7 @@
 //! `simulation.rs` connects the mesh (tests/driver_toys.rs drives an oscillator and a ball).
 
 pub mod bdf;
+pub mod dop853;
 pub mod dopri5;
 pub mod exchange;
 pub mod simulation;
@@ -81,8 +82,9 @@ pub trait System {
     /// Checks an accepted state against limits the right-hand side does not see.
     fn check_state(&self, y: &Self::State) -> Result<(), Self::Error>;
     /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
-    /// explicit method stays inside its stability region.
-    fn max_step(&self, y: &Self::State, explicit: bool) -> f64;
+    /// explicit method (`stability`: the h omega its stability region allows on the imaginary
+    /// axis) keeps oscillations of angular frequency omega within it.
+    fn max_step(&self, y: &Self::State, stability: Option<f64>) -> f64;
     /// The number of state components in use, a prefix of the state.
     fn dim(&self) -> usize;
     /// Takes in the piece [t0, t1] of a step between events, on which `y` is the dense output
@@ -166,6 +168,7 @@ pub fn initial_step<S: System>(
     y: &S::State,
     f0: &S::State,
     order: i32,
+    stability: f64,
     tol: &Tolerance<S::State>,
     stats: &mut Stats,
 ) -> Result<f64, StepError<S::Error>> {
@@ -177,7 +180,7 @@ pub fn initial_step<S: System>(
     } else {
         0.01 * d0 / d1
     };
-    let h0 = h0.min(sys.max_step(y, true));
+    let h0 = h0.min(sys.max_step(y, Some(stability)));
     let y1 = S::State::from_fn(|i| y[i] + h0 * f0[i]);
     let mut f1 = S::State::zeros();
     sys.rhs(&y1, &mut f1).map_err(StepError::Law)?;
@@ -189,11 +192,12 @@ pub fn initial_step<S: System>(
     } else {
         (0.01 / d1.max(d2)).powf(1.0 / (order as f64 + 1.0))
     };
-    Ok((100.0 * h0).min(h1).min(sys.max_step(y, true)))
+    Ok((100.0 * h0).min(h1).min(sys.max_step(y, Some(stability))))
 }
 
 /// The integration methods, chosen by the `solver` parameter: the hand-written Dormand-Prince
-/// and diffsol's BDF (docs/integrators.md has the measurements behind both choices).
+/// pairs of orders 5 and 8 and diffsol's BDF (docs/integrators.md has the measurements behind
+/// the choices).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "S::State: Serialize",
@@ -202,6 +206,7 @@ pub fn initial_step<S: System>(
 pub enum Method<S: System> {
     Dopri5(dopri5::Dopri5<S::State>),
     Bdf(bdf::Bdf<S>),
+    Dop853(dop853::Dop853<S::State>),
 }
 
 /// What the driver reads of a method: its last step and the dense output over it.
@@ -241,51 +246,81 @@ pub trait Stepper<S: System>: DenseOutput<S::State> {
     ) -> Result<(), StepError<S::Error>>;
 }
 
-impl<Y: Vector> DenseOutput<Y> for dopri5::Dopri5<Y> {
-    fn t(&self) -> f64 {
-        self.t
-    }
-    fn t_prev(&self) -> f64 {
-        self.t_prev
-    }
-    fn y(&self) -> &Y {
-        &self.y
-    }
-    fn h(&self) -> f64 {
-        self.h
-    }
-    fn rate_at_end(&self) -> Y {
-        self.k1
-    }
-    fn interpolate(&self, t: f64) -> Y {
-        dopri5::Dopri5::interpolate(self, t)
-    }
-    fn derivative(&self, t: f64) -> Y {
-        dopri5::Dopri5::derivative(self, t)
-    }
+/// The traits of an explicit Runge-Kutta method with its own `restart`, `step`, `interpolate`
+/// and `derivative`, and `t`, `t_prev`, `h`, `y` and `k1` (the rate at the step's end).
+macro_rules! explicit_method {
+    ($method:ty) => {
+        impl<Y: Vector> DenseOutput<Y> for $method {
+            fn t(&self) -> f64 {
+                self.t
+            }
+            fn t_prev(&self) -> f64 {
+                self.t_prev
+            }
+            fn y(&self) -> &Y {
+                &self.y
+            }
+            fn h(&self) -> f64 {
+                self.h
+            }
+            fn rate_at_end(&self) -> Y {
+                self.k1
+            }
+            fn interpolate(&self, t: f64) -> Y {
+                <$method>::interpolate(self, t)
+            }
+            fn derivative(&self, t: f64) -> Y {
+                <$method>::derivative(self, t)
+            }
+        }
+
+        impl<S: System<State = Y>, Y: Vector> Stepper<S> for $method {
+            fn restart(
+                &mut self,
+                sys: &S,
+                t: f64,
+                y: &Y,
+                h: Option<f64>,
+                tol: &Tolerance<Y>,
+                stats: &mut Stats,
+            ) -> Result<(), StepError<S::Error>> {
+                <$method>::restart(self, sys, t, y, h, tol, stats)
+            }
+            fn step(
+                &mut self,
+                sys: &S,
+                h_max: f64,
+                tol: &Tolerance<Y>,
+                stats: &mut Stats,
+            ) -> Result<(), StepError<S::Error>> {
+                <$method>::step(self, sys, h_max, tol, stats)
+            }
+        }
+    };
 }
 
-impl<S: System> Stepper<S> for dopri5::Dopri5<S::State> {
-    fn restart(
-        &mut self,
-        sys: &S,
-        t: f64,
-        y: &S::State,
-        h: Option<f64>,
-        tol: &Tolerance<S::State>,
-        stats: &mut Stats,
-    ) -> Result<(), StepError<S::Error>> {
-        dopri5::Dopri5::restart(self, sys, t, y, h, tol, stats)
-    }
-    fn step(
-        &mut self,
-        sys: &S,
-        h_max: f64,
-        tol: &Tolerance<S::State>,
-        stats: &mut Stats,
-    ) -> Result<(), StepError<S::Error>> {
-        dopri5::Dopri5::step(self, sys, h_max, tol, stats)
-    }
+explicit_method!(dopri5::Dopri5<Y>);
+explicit_method!(dop853::Dop853<Y>);
+
+/// What an explicit method needs at a restart from y: the rate there, and the first step (the
+/// hint, else Hairer's estimate for the method's order and stability limit).
+pub(crate) fn explicit_start<S: System>(
+    sys: &S,
+    y: &S::State,
+    h_hint: Option<f64>,
+    order: i32,
+    stability: f64,
+    tol: &Tolerance<S::State>,
+    stats: &mut Stats,
+) -> Result<(S::State, f64), StepError<S::Error>> {
+    let mut f = S::State::zeros();
+    sys.rhs(y, &mut f).map_err(StepError::Law)?;
+    stats.rhs_evals += 1;
+    let h = match h_hint {
+        Some(h) => h,
+        None => initial_step(sys, y, &f, order, stability, tol, stats)?,
+    };
+    Ok((f, h))
 }
 
 impl<S: System + Clone + 'static> DenseOutput<S::State> for bdf::Bdf<S> {
@@ -344,6 +379,7 @@ impl<S: System + Clone + 'static> Method<S> {
     pub fn from_solver(solver: i32) -> Method<S> {
         match solver {
             2 => Method::Bdf(bdf::Bdf::new()),
+            3 => Method::Dop853(dop853::Dop853::new()),
             _ => Method::Dopri5(dopri5::Dopri5::new()),
         }
     }
@@ -353,6 +389,7 @@ impl<S: System + Clone + 'static> Method<S> {
         match self {
             Method::Dopri5(m) => m,
             Method::Bdf(m) => m,
+            Method::Dop853(m) => m,
         }
     }
 
@@ -360,6 +397,17 @@ impl<S: System + Clone + 'static> Method<S> {
         match self {
             Method::Dopri5(m) => m,
             Method::Bdf(m) => m,
+            Method::Dop853(m) => m,
+        }
+    }
+
+    /// For an explicit method, the h omega its stability region allows on the imaginary axis
+    /// (`System::max_step`); None for the implicit one.
+    fn stability(&self) -> Option<f64> {
+        match self {
+            Method::Dopri5(_) => Some(dopri5::STABILITY),
+            Method::Bdf(_) => None,
+            Method::Dop853(_) => Some(dop853::STABILITY),
         }
     }
 
@@ -696,8 +744,7 @@ impl<S: System + Clone + 'static> Driver<S> {
             }
             self.observe_to(sys, self.method.t())?;
             if self.step_limit.is_nan() || self.stats.steps.is_multiple_of(STEP_LIMIT_AGE) {
-                let explicit = matches!(self.method, Method::Dopri5(_));
-                self.step_limit = sys.max_step(self.method.y(), explicit);
+                self.step_limit = sys.max_step(self.method.y(), self.method.stability());
             }
             let h_max = self
                 .step_limit

@@ -50,11 +50,11 @@ impl System for Mesh {
     /// longer step is cut back at an event anyway, and the driver's cubic check finds a gate or
     /// window crossed twice inside a step. The compliant mesh keeps the quarter pitch it had
     /// before that check, so its scenes keep their answers; its steps are set by the vibration
-    /// nearly everywhere. For an explicit method also 2/omega_n of the mesh vibration, inside
-    /// Dormand-Prince's stability region (|h lambda| < 3.3 on the imaginary axis): near an
-    /// equilibrium the error estimate sees nothing and would let the step grow until rounding
-    /// errors are amplified.
-    fn max_step(&self, y: &State, explicit: bool) -> f64 {
+    /// nearly everywhere. For an explicit method also `stability`/omega_n of the mesh vibration
+    /// (2 for Dormand-Prince 5(4), 4 for DOP853: `dopri5::STABILITY`, `dop853::STABILITY`):
+    /// near an equilibrium the error estimate sees nothing and would let the step grow until
+    /// rounding errors are amplified.
+    fn max_step(&self, y: &State, stability: Option<f64>) -> f64 {
         let speed = self.geo.r_ab * y[crate::model::mesh::W_A].abs();
         let pitches = match self.law {
             crate::model::ContactModel::Compliant(_) => 0.25,
@@ -65,10 +65,10 @@ impl System for Mesh {
         } else {
             f64::INFINITY
         };
-        if explicit {
+        if let Some(reach) = stability {
             let omega = self.vibration_frequency(y);
             if omega > 0.0 {
-                return travel.min(2.0 / omega);
+                return travel.min(reach / omega);
             }
         }
         travel

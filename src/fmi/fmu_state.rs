@@ -27,6 +27,7 @@ fn check_values(s: &Simulation) -> Result<(), String> {
     let (t, t_prev, h, y) = match &d.method {
         Method::Dopri5(x) => (x.t, x.t_prev, x.h, x.y),
         Method::Bdf(x) => (x.t, x.t_prev, x.h, x.y),
+        Method::Dop853(x) => (x.t, x.t_prev, x.h, x.y),
     };
     let mut values = vec![
         d.t,
@@ -55,9 +56,16 @@ fn check_values(s: &Simulation) -> Result<(), String> {
         m.loads.alpha_housing,
         m.loads.a_housing_x,
     ]);
-    if let Method::Dopri5(x) = &d.method {
-        values.extend_from_slice(&x.k1);
-        x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+    match &d.method {
+        Method::Dopri5(x) => {
+            values.extend_from_slice(&x.k1);
+            x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+        }
+        Method::Dop853(x) => {
+            values.extend_from_slice(&x.k1);
+            x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+        }
+        Method::Bdf(_) => {}
     }
     if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
         return Err(format!(

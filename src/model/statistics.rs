@@ -5,7 +5,8 @@
 //!
 //! Integrals: 5-point Gauss-Legendre on each piece, exact to degree 9 in time. Dormand-Prince's
 //! dense output is of degree 4, so the integrals of dte and dte^2 are exact for that method
-//! (BDF's interpolant, of degree up to 5, leaves an error of order h^10 on dte^2).
+//! (DOP853's, of degree 7, and BDF's interpolant, of degree up to 5, leave an error of order
+//! h^10 on dte^2).
 //! Extremes: the piece's ends and its Gauss nodes are sampled; where the best sample is
 //! interior, a golden-section search on the dense output between its neighbours finds the
 //! extremum to 1e-6 of the piece (the value's error is quadratic in that: ~1e-12 relative).

@@ -326,9 +326,13 @@ def compare_statistics(scene, fnames, ftab, rnames, rtab):
     return checks
 
 
-def compare_scene(fmu, name, workdir, rel_tol=None):
+def compare_scene(fmu, name, workdir, rel_tol=None, integrator=None):
+    """integrator: the FMU's `solver` parameter instead of the scene's (None: the scene's)."""
     t0 = time.perf_counter()
     scene = G.load_scene(name)
+    if integrator is not None:
+        scene = {**scene, "name": f"{name}.solver{integrator}",
+                 "start_values": {**scene.get("start_values", {}), "solver": integrator}}
     mode = scene.get("mode", "trace")
     fnames, ftab, seconds, cmd = run_fmpy(fmu, scene, workdir, rel_tol)
     rnames, rtab = read_csv(REF_DIR / f"{name}.csv")

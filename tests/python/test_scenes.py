@@ -40,6 +40,25 @@ def test_scene_matches_reference(name, fmu_path, tmp_path):
         pytest.fail("\n".join(lines), pytrace=False)
 
 
+# DOP853 (solver = 3) on the explicit methods' scenes: every one at its own rel_tol and bounds.
+# `stiff` is left out: it is the implicit solver's scene (solver = 2), on which an explicit
+# method takes ~2e5 steps (docs/performance.md).
+EXPLICIT_SCENES = [n for n in SCENES
+                   if S.G.load_scene(n).get("start_values", {}).get("solver", 1) == 1]
+
+
+@pytest.mark.parametrize("name", EXPLICIT_SCENES)
+def test_scene_matches_reference_with_dop853(name, fmu_path, tmp_path):
+    res = S.compare_scene(fmu_path, name, tmp_path, integrator=3)
+    assert res.checks, f"scene {name} compares nothing"
+    if not res.ok:
+        lines = [f"scene {name} ({res.mode}) with solver = 3: {len(res.failures())} of "
+                 f"{len(res.checks)} checks out of bounds"]
+        lines += ["  " + c.message() for c in res.failures()]
+        lines += ["reproduce: " + shlex.join(res.command)]
+        pytest.fail("\n".join(lines), pytrace=False)
+
+
 # ---- the comparison itself, on the reference's own grid rows (no FMU) ------------------------
 
 def grid_as_fmu_output(name):

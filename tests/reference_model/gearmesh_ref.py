@@ -813,8 +813,13 @@ class GearMesh:
 
     def simulate(self, stop_time, output_interval, inputs: InputTable | None = None,
                  rtol=1e-10, method="DOP853", energy=False, max_restarts=2_000_000,
-                 perturb_w_A=0.0, y0=None, bearing_force=None, per_pair=False):
+                 perturb_w_A=0.0, y0=None, bearing_force=None, per_pair=False,
+                 output_step_cap=True):
         """Integrate over [0, stop_time]; sample on k*output_interval and at every event.
+
+        output_step_cap: solve_ivp's steps stay within the output interval (the default, for
+        the reference traces); False leaves only the cap of 1/8 base pitch (for comparing
+        methods, docs/integrators.md; the contact-model-1 path only).
 
         bearing_force: append the outputs F_B_x, F_B_y (default: only with contact_model = 2).
         contact_model = 3 or shape deviations run deviations_ref.DevMesh (outputs also k_mesh and
@@ -914,7 +919,8 @@ class GearMesh:
             uA_, uB_, wA_, wB_, aA_, aB_ = cfg.kin[:6]
             line_speed = (max(abs(rAb * wA_), abs(rBb * wB_))
                           + max(abs(rAb * aA_), abs(rBb * aB_)) * (t_hi - t))
-            max_step = min(output_interval, g.p_b / (8.0 * line_speed + 1e-300))
+            max_step = min(output_interval if output_step_cap else np.inf,
+                           g.p_b / (8.0 * line_speed + 1e-300))
             rhs = make_rhs(cfg, seg)
             extra = {}
             if method in ("Radau", "BDF", "LSODA"):
@@ -1617,13 +1623,14 @@ def scene_reference_rtol(scene):
     return float(scene.get("reference_rtol", REF_RTOL))
 
 
-def run_scene(scene, rtol=None, method="DOP853", perturb_rel=0.0):
+def run_scene(scene, rtol=None, method="DOP853", perturb_rel=0.0, output_step_cap=True):
     if rtol is None:
         rtol = scene_reference_rtol(scene)
     model, inputs = scene_model(scene)
     dw = perturb_rel * max(abs(model.p["w_A_start"]), 1.0)
+    extra = {} if output_step_cap else {"output_step_cap": False}
     return model.simulate(scene["stop_time"], scene["output_interval"], inputs, rtol=rtol,
-                          method=method, perturb_w_A=dw)
+                          method=method, perturb_w_A=dw, **extra)
 
 
 # --------------------------------------------------------------------------------------------
