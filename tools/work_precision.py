@@ -13,6 +13,7 @@ Integrators, all on the same scene files (scenes/<name>.toml, inputs from the sc
 every communication point, one communication step per output interval):
   solver 1   the FMU's Dormand-Prince 5(4), events located on the dense output
   solver 2   the FMU's implicit method (see the solver parameter in modelDescription/variables.toml)
+  solver 3   the FMU's DOP853 (Dormand-Prince 8(5,3), 7th-order dense output), events as solver 1
   RK4 xN     naive fixed-step peer: N classical RK4 substeps per communication step, no event
              location, contact modes updated from the state at the start of every substep
   Euler xN   the same with explicit Euler substeps
@@ -55,6 +56,8 @@ EULER_SUBSTEPS = [16, 64, 256, 1024, 4096]
 SCIPY_RTOLS = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9]   # 1e-10 is the reference itself
 RADAU_MIN_RTOL = 1e-8            # Radau's cost grows steeply below (~15 s per run at 1e-9)
 TARGET_DTE = 1e-3                # "dte within 0.1 % of its range"
+FMU_SOLVERS = (1, 2, 3)          # the `solver` parameter's values
+EXPLICIT = ("solver 1", "solver 3")
 HORIZON_FRACTION = 1e-4          # chaotic scenes: compared while the reference agrees with
                                  # itself to 1/10 of the target
 EQUAL_ERROR_LEVELS = [1e-2, 1e-3, 1e-4, 1e-5]
@@ -382,7 +385,7 @@ def sweep_scene(ref: Reference, args, counting):
               f"  dte err/range {r['dte_rel']:.2e}  w err {r['w_rel']:.2e}{status}", flush=True)
 
     rtols = args.rtols
-    for solver in (1, 2):
+    for solver in FMU_SOLVERS:
         last = None
         for rtol in rtols:
             p = os.path.join(tdir, f"solver{solver}-{rtol:.0e}.csv")
@@ -429,6 +432,12 @@ def cost_at(results, label, level, key="dte_rel"):
             if best is None or r["cpu_median_s"] < best["cpu_median_s"]:
                 best = r
     return best
+
+
+def cheapest_explicit(results, level):
+    """The cheaper of the explicit solvers' cheapest runs reaching the level, or None."""
+    runs = [r for r in (cost_at(results, lab, level) for lab in EXPLICIT) if r]
+    return min(runs, key=lambda r: r["cpu_median_s"]) if runs else None
 
 
 def error_at_cost(results, label, cost, key="dte_rel"):
@@ -545,7 +554,8 @@ def plot(all_results, refs, path):
     ncol = 3
     nrow = math.ceil(len(names) / ncol)
     fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 4.0 * nrow), squeeze=False)
-    style = {"solver 1": ("C0", "o"), "solver 2": ("C1", "s"), "RK4 fixed": ("C2", "^"),
+    style = {"solver 1": ("C0", "o"), "solver 2": ("C1", "s"), "solver 3": ("C6", "P"),
+             "RK4 fixed": ("C2", "^"),
              "Euler fixed": ("C4", "v"), "SciPy DOP853": ("C3", "D"), "SciPy Radau": ("C5", "D")}
     for ax, name in zip(axes.flat, names):
         ref = refs[name]
@@ -633,31 +643,44 @@ def main(argv=None):
     # (1) paper-m2 through the C API, the cheapest tolerance within 0.1 % of the range
     if "paper-m2" in refs:
         ref = refs["paper-m2"]
-        res = [r for r in all_results["paper-m2"] if r["label"] == "solver 1"]
-        good = [r for r in res if ok(r) and r["dte_rel"] <= TARGET_DTE]
-        cand = sorted({r["rel_tol"] for r in good}, reverse=True)[:3]
-        variants = {f"c-{rt:.0e}": {"solver": 1, "rtol": rt} for rt in cand}
+        # the three loosest passing rtols of each explicit solver
+        variants = {}
+        for lab in EXPLICIT:
+            res = [r for r in all_results["paper-m2"] if r["label"] == lab]
+            good = [r for r in res if ok(r) and r["dte_rel"] <= TARGET_DTE]
+            for rt in sorted({r["rel_tol"] for r in good}, reverse=True)[:3]:
+                sv = int(lab.split()[-1])
+                variants[f"c{sv}-{rt:.0e}"] = {"solver": sv, "rtol": rt}
         cpu, wall, last = interleaved("paper-m2", variants, 21, 3, outputs="dte,w_A,w_B", api="c")
         rows = []
         for k in variants:
             r, p = last[k]
             e = errors(ref, *read_trace(p))
-            rows.append({"rel_tol": variants[k]["rtol"], "cpu": cpu[k], "wall": wall[k],
+            rows.append({"solver": variants[k]["solver"], "rel_tol": variants[k]["rtol"],
+                         "cpu": cpu[k], "wall": wall[k],
                          "dte_rel": e["dte_rel"], "n_steps": r["n_steps"],
                          "n_rejected_steps": r["n_rejected_steps"],
                          "n_rhs_evaluations": r["n_rhs_evaluations"], "n_events": r["n_events"]})
         targets["paper_m2_c_api"] = rows
     if "damped" in refs:
         ref = refs["damped"]
-        res = [r for r in all_results["damped"] if r["label"] == "solver 1"]
-        good = [r for r in res if ok(r) and r["dte_rel"] <= TARGET_DTE]
-        if good:
-            rt = max(r["rel_tol"] for r in good)
-            cpu, wall, last = interleaved("damped", {"c": {"solver": 1, "rtol": rt}}, 21, 3,
-                                          outputs="dte,w_A,w_B", api="c")
-            e = errors(ref, *read_trace(last["c"][1]))
-            targets["damped_c_api"] = {"rel_tol": rt, "cpu": cpu["c"], "wall": wall["c"],
-                                       "dte_rel": e["dte_rel"]}
+        # the loosest rtol from which on each explicit solver passes; the cheaper one counts
+        variants = {}
+        for lab in EXPLICIT:
+            r = loosest_meeting(all_results["damped"], lab)
+            if r:
+                sv = int(lab.split()[-1])
+                variants[f"c{sv}"] = {"solver": sv, "rtol": r["rel_tol"]}
+        if variants:
+            cpu, wall, last = interleaved("damped", variants, 21, 3, outputs="dte,w_A,w_B",
+                                          api="c")
+            k = min(variants, key=lambda v: cpu[v])
+            e = errors(ref, *read_trace(last[k][1]))
+            targets["damped_c_api"] = {"solver": variants[k]["solver"],
+                                       "rel_tol": variants[k]["rtol"], "cpu": cpu[k],
+                                       "wall": wall[k], "dte_rel": e["dte_rel"],
+                                       "others": {v: {"cpu": cpu[v], **variants[v]}
+                                                  for v in variants if v != k}}
     # (3) fmi2DoStep without an event
     print("cargo bench --bench throughput ...", flush=True)
     ns, bench_out = bench_throughput()
@@ -736,24 +759,27 @@ def summary(refs, all_results, tl):
         if rows:
             b = min(rows, key=lambda r: r["cpu"])
             d = tl.get("damped_c_api")
-            extra = (f"; damped variant (whole scene, rtol {d['rel_tol']:.0e}): "
-                     f"{0.1 / d['cpu']:.0f} per CPU s, {0.1 / d['wall']:.0f} per wall s") if d else ""
+            extra = (f"; damped variant (whole scene, solver {d['solver']}, rtol "
+                     f"{d['rel_tol']:.0e}): {0.1 / d['cpu']:.0f} per CPU s, "
+                     f"{0.1 / d['wall']:.0f} per wall s") if d else ""
             v = 0.1 / b["cpu"]
-            robust = loosest_meeting(all_results["paper-m2"], "solver 1")
+            robust = loosest_meeting(all_results["paper-m2"], f"solver {b['solver']}")
             rr = robust and next((r for r in tl["paper_m2_c_api"]
-                                  if r["rel_tol"] == robust["rel_tol"]), None)
+                                  if r["rel_tol"] == robust["rel_tol"]
+                                  and r["solver"] == b["solver"]), None)
             if rr and rr is not b:
                 extra = (f"; {0.1 / rr['cpu']:.0f} per CPU s at rtol {rr['rel_tol']:.0e}, the "
                          f"loosest from which every tighter rtol also passes") + extra
             A(f"| paper-m2 ≥ 100 simulated s per s through the C API, dte within 0.1 % "
               f"(the damped variant ≥ 300) | "
-              f"{v:.0f} per CPU s, {0.1 / b['wall']:.0f} per wall s (rtol {b['rel_tol']:.0e}, "
+              f"{v:.0f} per CPU s, {0.1 / b['wall']:.0f} per wall s (solver {b['solver']}, "
+              f"rtol {b['rel_tol']:.0e}, "
               f"error {b['dte_rel']:.1e} of the range over t ≤ {refs['paper-m2'].horizon:.3g} s){extra} "
               f"| paper-m2: {rate_verdict(v, 100)}"
               + (f"; damped: {rate_verdict(0.1 / d['cpu'], 300)}" if d else "") + " |")
     ratios = []
     for n, res in all_results.items():
-        ours = [cost_at(res, lab, TARGET_DTE) for lab in ("solver 1", "solver 2")]
+        ours = [cost_at(res, f"solver {sv}", TARGET_DTE) for sv in FMU_SOLVERS]
         ours = [o for o in ours if o]
         sp = cost_at(res, "SciPy DOP853", TARGET_DTE) or cost_at(res, "SciPy Radau", TARGET_DTE)
         if ours and sp:
@@ -772,7 +798,7 @@ def summary(refs, all_results, tl):
         cells = []
         verdict = None
         for e in (1e-2, TARGET_DTE, 1e-4):
-            a, b = cost_at(res, "solver 2", e), cost_at(res, "solver 1", e)
+            a, b = cost_at(res, "solver 2", e), cheapest_explicit(res, e)
             if a and b:
                 q = b["cpu_median_s"] / a["cpu_median_s"]
                 cells.append(f"{q:.0f}× at ≤ {e:g}")
@@ -794,11 +820,11 @@ def summary(refs, all_results, tl):
     A("")
     A("**Loosest rtol from which on (for it and every tighter rtol measured) dte stays within 0.1 % "
       "of its range**, and its cost:\n")
-    A("| scene | solver 1 | solver 2 | solver 1 at rtol 1e-6 (the default): dte err / range, CPU ms per simulated s |")
-    A("|---|---|---|---|")
+    A("| scene | solver 1 | solver 2 | solver 3 | solver 1 at rtol 1e-6 (the default): dte err / range, CPU ms per simulated s |")
+    A("|---|---|---|---|---|")
     for n, res in all_results.items():
         cells = []
-        for lab in ("solver 1", "solver 2"):
+        for lab in (f"solver {sv}" for sv in FMU_SOLVERS):
             r = loosest_meeting(res, lab)
             cells.append("not reached" if r is None else
                          f"{r['rel_tol']:.0e} ({r['cpu_median_s'] * 1e3 / refs[n].stop:.3g} ms per s)")
@@ -896,45 +922,51 @@ def report(info, refs, all_results, targets, args):
           f"agrees with itself (t ≤ {refs['paper-m2'].horizon:.4g} s); the run covers the whole "
           "0.1 s scene. In-process through fmi2Instantiate ... fmi2DoStep (communication step "
           "1e-4 s, fmi2GetReal of dte, w_A, w_B after every step), 3 rounds of 21 runs, median:\n")
-        A("| rtol | dte err / range (window) | steps | rejected | RHS evals | events | CPU ms | wall ms | simulated s per CPU s | per wall s |")
-        A("|---|---|---|---|---|---|---|---|---|---|")
+        A("| solver | rtol | dte err / range (window) | steps | rejected | RHS evals | events | CPU ms | wall ms | simulated s per CPU s | per wall s |")
+        A("|---|---|---|---|---|---|---|---|---|---|---|")
         for r in rows:
-            A(f"| {r['rel_tol']:.0e} | {r['dte_rel']:.2e} | {r['n_steps']} | {r['n_rejected_steps']} "
+            A(f"| {r['solver']} | {r['rel_tol']:.0e} | {r['dte_rel']:.2e} | {r['n_steps']} | {r['n_rejected_steps']} "
               f"| {r['n_rhs_evaluations']} | {r['n_events']} | {r['cpu'] * 1e3:.2f} | {r['wall'] * 1e3:.2f} "
               f"| {0.1 / r['cpu']:.0f} | {0.1 / r['wall']:.0f} |")
         A("\nHow much of paper-m2 is compared matters: every flight phase and re-impact (from "
-          "~0.015 s on) amplifies earlier errors. dte error of solver 1 (fraction of the range "
-          "over the window) and its CPU time per run (Rust API, from the sweep), by window:\n")
+          "~0.015 s on) amplifies earlier errors. dte error of the explicit solvers (fraction of "
+          "the range over the window) and their CPU time per run (Rust API, from the sweep), by "
+          "window:\n")
         wins = sorted(set(PAPER_M2_WINDOWS + [refs["paper-m2"].horizon]))
-        A("| rtol | CPU ms per run | " + " | ".join(f"t ≤ {w:.4g} s" for w in wins) + " |")
-        A("|---|---|" + "---|" * len(wins))
+        A("| solver | rtol | CPU ms per run | " + " | ".join(f"t ≤ {w:.4g} s" for w in wins) + " |")
+        A("|---|---|---|" + "---|" * len(wins))
         ref = refs["paper-m2"]
         keep = ref.horizon, ref.horizon_note
         for r in all_results["paper-m2"]:
-            if r["label"] != "solver 1" or not ok(r):
+            if r["label"] not in EXPLICIT or not ok(r):
                 continue
             names, table = read_trace(r["trace"])
             cells = []
             for w in wins:
                 ref.set_horizon(w, "")
                 cells.append(f"{errors(ref, names, table)['dte_rel']:.1e}")
-            A(f"| {r['rel_tol']:.0e} | {r['cpu_median_s'] * 1e3:.2f} | " + " | ".join(cells) + " |")
+            A(f"| {r['label'].split()[-1]} | {r['rel_tol']:.0e} | {r['cpu_median_s'] * 1e3:.2f} | "
+              + " | ".join(cells) + " |")
         ref.set_horizon(*keep)
         if "damped_c_api" in tl:
             d = tl["damped_c_api"]
+            others = "".join(f"; solver {o['solver']} at rtol {o['rtol']:.0e}, the loosest from "
+                             f"which it passes: {0.1 / o['cpu']:.0f} per CPU s"
+                             for o in d.get("others", {}).values())
             A(f"\nThe damped variant (scene `damped`, chi = 10 s/m, compared over the whole 0.1 s): "
-              f"rtol {d['rel_tol']:.0e} is the loosest with dte within 0.1 % (error {d['dte_rel']:.2e} "
-              f"of the range), {0.1 / d['cpu']:.0f} simulated s per CPU s ({0.1 / d['wall']:.0f} per wall s).")
+              f"solver {d['solver']} at rtol {d['rel_tol']:.0e}, the loosest from which it keeps dte "
+              f"within 0.1 % (error {d['dte_rel']:.2e} of the range), {0.1 / d['cpu']:.0f} simulated "
+              f"s per CPU s ({0.1 / d['wall']:.0f} per wall s){others} (interleaved, C API).")
         A("")
     A("**2. ≥ 300× faster than the SciPy peer at equal error.** Cheapest measured run reaching each "
       "dte error level (fraction of the range), per scene; ratio = SciPy's CPU time / the FMU "
-      "solver's (best of solver 1 and 2):\n")
+      "solver's (the best of solvers 1 to 3):\n")
     A("| scene | " + " | ".join(f"err ≤ {e:g}" for e in EQUAL_ERROR_LEVELS) + " |")
     A("|---|" + "---|" * len(EQUAL_ERROR_LEVELS))
     for n, res in all_results.items():
         cells = []
         for e in EQUAL_ERROR_LEVELS:
-            ours = [cost_at(res, lab, e) for lab in ("solver 1", "solver 2")]
+            ours = [cost_at(res, f"solver {sv}", e) for sv in FMU_SOLVERS]
             ours = [o for o in ours if o]
             sp = cost_at(res, "SciPy DOP853", e) or cost_at(res, "SciPy Radau", e)
             if not ours or not sp:
@@ -955,13 +987,13 @@ def report(info, refs, all_results, targets, args):
         res = all_results["stiff"]
         A("**4. stiff scene: the implicit solver ≥ 10× faster than the explicit at equal error.** "
           "Cheapest run of each reaching the error level:\n")
-        A("| dte err / range ≤ | solver 2 (implicit) | solver 1 (explicit) | ratio |")
+        A("| dte err / range ≤ | solver 2 (implicit) | the cheaper explicit (solver 1 or 3) | ratio |")
         A("|---|---|---|---|")
         for e in EQUAL_ERROR_LEVELS + [1e-6]:
-            a, b = cost_at(res, "solver 2", e), cost_at(res, "solver 1", e)
+            a, b = cost_at(res, "solver 2", e), cheapest_explicit(res, e)
             if a and b:
                 A(f"| {e:g} | {a['cpu_median_s'] * 1e3:.2f} ms (rtol {a['rel_tol']:.0e}) "
-                  f"| {b['cpu_median_s'] * 1e3:.1f} ms (rtol {b['rel_tol']:.0e}) "
+                  f"| {b['cpu_median_s'] * 1e3:.1f} ms ({b['label']}, rtol {b['rel_tol']:.0e}) "
                   f"| {b['cpu_median_s'] / a['cpu_median_s']:.1f}× |")
             else:
                 A(f"| {e:g} | {fmt(a and a['cpu_median_s'] * 1e3, '.2f')} | {fmt(b and b['cpu_median_s'] * 1e3, '.1f')} | – |")
