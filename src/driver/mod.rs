@@ -222,6 +222,9 @@ pub trait DenseOutput<Y> {
     /// The dense output and its rate at time t inside the last step.
     fn interpolate(&self, t: f64) -> Y;
     fn derivative(&self, t: f64) -> Y;
+    /// For an explicit method, the h omega its stability region allows on the imaginary axis
+    /// (`System::max_step`); None for an implicit one.
+    fn stability(&self) -> Option<f64>;
 }
 
 /// How the driver steps a method on a system.
@@ -247,9 +250,10 @@ pub trait Stepper<S: System>: DenseOutput<S::State> {
 }
 
 /// The traits of an explicit Runge-Kutta method with its own `restart`, `step`, `interpolate`
-/// and `derivative`, and `t`, `t_prev`, `h`, `y` and `k1` (the rate at the step's end).
+/// and `derivative`, and `t`, `t_prev`, `h`, `y` and `k1` (the rate at the step's end), with the
+/// reach of its stability region on the imaginary axis.
 macro_rules! explicit_method {
-    ($method:ty) => {
+    ($method:ty, $stability:expr) => {
         impl<Y: Vector> DenseOutput<Y> for $method {
             fn t(&self) -> f64 {
                 self.t
@@ -271,6 +275,9 @@ macro_rules! explicit_method {
             }
             fn derivative(&self, t: f64) -> Y {
                 <$method>::derivative(self, t)
+            }
+            fn stability(&self) -> Option<f64> {
+                Some($stability)
             }
         }
 
@@ -299,8 +306,8 @@ macro_rules! explicit_method {
     };
 }
 
-explicit_method!(dopri5::Dopri5<Y>);
-explicit_method!(dop853::Dop853<Y>);
+explicit_method!(dopri5::Dopri5<Y>, dopri5::STABILITY);
+explicit_method!(dop853::Dop853<Y>, dop853::STABILITY);
 
 /// What an explicit method needs at a restart from y: the rate there, and the first step (the
 /// hint, else Hairer's estimate for the method's order and stability limit).
@@ -349,6 +356,9 @@ impl<S: System + Clone + 'static> DenseOutput<S::State> for bdf::Bdf<S> {
         let (a, b) = ((t - d).max(t0), (t + d).min(t1));
         let (ya, yb) = (self.interpolate(a), self.interpolate(b));
         S::State::from_fn(|i| (yb[i] - ya[i]) / (b - a))
+    }
+    fn stability(&self) -> Option<f64> {
+        None
     }
 }
 
@@ -401,14 +411,8 @@ impl<S: System + Clone + 'static> Method<S> {
         }
     }
 
-    /// For an explicit method, the h omega its stability region allows on the imaginary axis
-    /// (`System::max_step`); None for the implicit one.
     fn stability(&self) -> Option<f64> {
-        match self {
-            Method::Dopri5(_) => Some(dopri5::STABILITY),
-            Method::Bdf(_) => None,
-            Method::Dop853(_) => Some(dop853::STABILITY),
-        }
+        self.dense().stability()
     }
 
     fn t(&self) -> f64 {
