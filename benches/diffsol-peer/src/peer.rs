@@ -249,7 +249,9 @@ pub fn run_diffsol(
     opts: PeerOptions,
 ) -> Result<RunOut, String> {
     let (model, mut m) = start_diffsol(sc, kind, rtol, opts)?;
-    let explicit = kind == DiffsolKind::Tsit45;
+    // Tsit45 gets Dormand-Prince 5(4)'s limit: both are explicit pairs of order 5.
+    let stability =
+        (kind == DiffsolKind::Tsit45).then_some(spur_gear_mesh::driver::dopri5::STABILITY);
     let n = sc.n_comm();
     let mut dte = Vec::with_capacity(n + 1);
     dte.push(m.y()[DTE]);
@@ -258,7 +260,7 @@ pub fn run_diffsol(
     let mut k = 1;
     while k <= n {
         let t = m.t();
-        let h_max = model.mesh.borrow().max_step(&full(m.y()), explicit);
+        let h_max = model.mesh.borrow().max_step(&full(m.y()), stability);
         let t_limit = (t + h_max).min(sc.t_end);
         let t_new = m.step(&*model, t_limit)?;
         if t_new <= t || t_new.is_nan() {
