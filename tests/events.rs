@@ -1,7 +1,7 @@
 //! No event is stepped over (issue 12, point 1): grazes whose event function dips below zero and
 //! comes back inside one internal step, with one long communication step, at loose and tight
 //! tolerances, and random scenes whose event sequence must equal that of a run with small
-//! forced steps.
+//! forced steps. Both explicit methods (solvers 1 and 3) run them.
 
 use proptest::prelude::*;
 use spur_gear_mesh::driver::simulation::Simulation;
@@ -24,15 +24,16 @@ fn first(log: &[(f64, String)], what: &str) -> Option<f64> {
 
 /// Free flight inside the backlash with A braked (tau_A = -1 N m, no load on B): dte is the
 /// parabola dte_0 + v_0 t + a t^2/2 with a = rAb tau_A/J_A, and its apex reaches `depth` into
-/// the forward flank. Dormand-Prince integrates a parabola exactly, so the touch must be
+/// the forward flank. Both explicit methods integrate a parabola exactly, so the touch must be
 /// located at the parabola's first root, to rounding (1e-12 s), at either tolerance.
 #[test]
 fn a_graze_into_the_forward_flank_is_located() {
-    for depth in [1e-7, 1e-6] {
+    for (solver, depth) in [1, 3].into_iter().flat_map(|s| [(s, 1e-7), (s, 1e-6)]) {
         for rtol in [1e-6, 1e-3] {
             let base = Params {
                 dte_start: -5e-5,
                 c_load: 0.0,
+                solver,
                 ..Params::default()
             };
             let g = Geometry::new(&base).unwrap();
@@ -50,11 +51,12 @@ fn a_graze_into_the_forward_flank_is_located() {
             };
             let t_touch = (v0 - (2.0 * a.abs() * depth).sqrt()) / a.abs();
             let log = events(&p, &i, rtol, 2.0 * v0 / a.abs(), f64::INFINITY);
-            let t = first(&log, "Forward flank touches")
-                .unwrap_or_else(|| panic!("depth {depth}, rtol {rtol}: touch missed: {log:?}"));
+            let t = first(&log, "Forward flank touches").unwrap_or_else(|| {
+                panic!("solver {solver}, depth {depth}, rtol {rtol}: touch missed: {log:?}")
+            });
             assert!(
                 (t - t_touch).abs() <= 1e-12,
-                "depth {depth}, rtol {rtol}: touch at {t}, parabola {t_touch}"
+                "solver {solver}, depth {depth}, rtol {rtol}: touch at {t}, parabola {t_touch}"
             );
         }
     }
@@ -65,12 +67,13 @@ fn a_graze_into_the_forward_flank_is_located() {
 /// s_A(t) = s_a - X + rAb (w_0 t + alpha t^2/2). The gate is entered and left at the two roots.
 #[test]
 fn a_grazed_pair_switch_is_located() {
-    for depth in [1e-7, 1e-6] {
+    for (solver, depth) in [1, 3].into_iter().flat_map(|s| [(s, 1e-7), (s, 1e-6)]) {
         for rtol in [1e-6, 1e-3] {
             let x = 2e-4;
             let base = Params {
                 backlash: 1e-3,
                 dte_start: -x,
+                solver,
                 ..Params::default()
             };
             let g = Geometry::new(&base).unwrap();
@@ -91,11 +94,17 @@ fn a_grazed_pair_switch_is_located() {
             let enter = first(&log, "f1 enters the contact segment");
             let leave = first(&log, "f1 leaves the contact segment");
             let (Some(t1), Some(t2)) = (enter, leave) else {
-                panic!("depth {depth}, rtol {rtol}: switch missed: {log:?}");
+                panic!("solver {solver}, depth {depth}, rtol {rtol}: switch missed: {log:?}");
             };
-            // theta_A is a parabola: exact for Dormand-Prince up to rounding.
-            assert!((t1 - t_in).abs() <= 1e-12, "enter {t1} vs {t_in}");
-            assert!((t2 - t_out).abs() <= 1e-12, "leave {t2} vs {t_out}");
+            // theta_A is a parabola: exact for both methods up to rounding.
+            assert!(
+                (t1 - t_in).abs() <= 1e-12,
+                "solver {solver}: enter {t1} vs {t_in}"
+            );
+            assert!(
+                (t2 - t_out).abs() <= 1e-12,
+                "solver {solver}: leave {t2} vs {t_out}"
+            );
         }
     }
 }
@@ -142,7 +151,7 @@ fn same_events_with_forced_small_steps(
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
 
-    /// Random damped scenes (speeds, torques, backlash, friction).
+    /// Random damped scenes (speeds, torques, backlash, friction), with either explicit method.
     #[test]
     fn event_sequences_do_not_depend_on_the_step(
         w_a in 1.0f64..60.0,
@@ -151,8 +160,10 @@ proptest! {
         backlash in 1e-5f64..3e-4,
         mu in 0.0f64..0.2,
         dte_frac in 0.0f64..1.0,
+        solver in prop_oneof![Just(1), Just(3)],
     ) {
         let base = Params {
+            solver,
             chi: 10.0,
             c_load: 0.5,
             mu,
