@@ -1,0 +1,1378 @@
+"""Independent reference model of the SpurGearTrain FMU (/work/shared/spec/gear-train.md).
+
+Bodies (rigid rotors), shafts (linear torsional spring-dampers) and meshes (the single-mesh
+model of gear-mesh-model.md, contact model 1: Johnson line contact, Hunt-Crossley damping chi,
+regularized Coulomb friction mu, backlash, forward and backward flanks, contact ratio in [1, 2]).
+Written from the specification; it shares with the single-mesh reference gearmesh_ref.py only
+its pure functions (geometry front ends, Johnson law, parameter defaults, the tie rule `_side`).
+
+STATE.  Not the body angles themselves but the TREE COORDINATES, a linear change of them:
+
+    x = [theta_1, c_1, ..., c_{n-1}],   y = [x, dx/dt, W_ext, W_loss]
+
+theta_1 is body 1's forward angle; c_k is the coordinate of edge k (meshes 1..n_meshes first,
+then shafts 1..n_shafts): for a mesh e_m = rAb theta_A - rBb theta_B (so dte_m = e_m +
+dte_start_m), for a shaft q_j = theta_a - theta_b (its twist is q_j + twist_start_j).  A tree on
+n bodies has n - 1 edges, each the parent edge of exactly one body, so theta = T x with an
+invertible T (built by walking the tree from body 1) and x = E theta.  Integrating e_m directly
+keeps the penetrations' error absolute (a few 1e-16 m), instead of a difference of two large
+angles; this is what gearmesh_ref does for its one mesh ([theta_A, e, w_A, v]).
+
+TEETH, from the body angles alone (spec sections 2-4).  Body i has forward sense sigma_i
+(sigma_1 = -1, flipped across a mesh, kept across a shaft) and absolute angle
+psi_i = psi_i(0) + sigma_i theta_i.  Mesh m maps to its paper frame with s_m = -sigma_A
+(s_m = +1: rotation by beta = center_angle; s_m = -1: rotation and mirror):
+chi = s_m (psi + mount - beta) is a gear's tooth-0 axis in that frame.  Teeth are numbered
+n = ..., -1, 0, 1, ... in the body's forward sense (tooth n's axis at psi + mount + sigma n 2pi/z
+in the housing frame), i.e. at chi + s_m sigma n dz in the mesh frame: chi - n dA for gear A
+(s_m sigma_A = -1) and chi + n dB for gear B.  The spec's roots "chi + k dz -+ t/2" give, with
+u = rb theta (line-of-action travel) and the offsets fixed at t = 0 (section "Placement"):
+
+    forward,  A tooth n:  s_A = SfA + u_A + n p_b       B tooth n:  s_B = SfB - u_B - n p_b
+    backward, A tooth n:  s_A = SbA - u_A - n p_b       B tooth n:  s_B = SbB + u_B + n p_b
+
+    SfA = rAb (alpha_w - chiA0 + tA/2)          SfB = rBb (alpha_w + pi - chiB0 + tB/2)
+    SbA = rAb (alpha_w + chiA0 + tA/2)          SbB = rBb (alpha_w - pi + chiB0 + tB/2)
+
+A pair (n_A, n_B) has delta = s_A + s_B - L, which depends on n_B - n_A only: the teeth that
+mesh are those with n_B - n_A = K_f (forward) or K_b (backward), fixed at placement so that the
+forward delta equals dte_start (then the backward delta is -backlash - dte by the thickness
+identity of gear-mesh-model.md section 2; checked at placement).  Pairs are ENUMERATED by n_A
+(no contact objects, no jumps).  n_A is the unwrapped tooth count: the physical tooth is
+n_A mod z_A; the identity f1/f2, b1/b2 uses n_A mod m_c of the unwrapped count, as an
+object-tracking implementation's jumps by m_c pairs do.
+
+FORCES (gear-mesh-model.md sections 3-5).  A pair carries iff gated (s_A <= s_b: inside A's tip;
+s_B <= L - s_a: inside B's tip, which is the spec's s_A - max(delta, 0) >= s_a for delta > 0),
+inside the m_c-pitch window s_A >= s_b - m_c p_b (only restrictive when contacts_per_flank <
+eps), its flank's delta > 0 and (chi > 0) 1 + chi d(delta)/dt > 0.  All carrying pairs of a flank
+share delta, rho_A + rho_B = L + delta and the Johnson force; F_n = width N (1 + chi d(delta)/dt),
+F_t = mu tanh(v_s/v_reg) F_n, torques as the single mesh's table, in forward terms (interface
+sign): forward flank -F_n rAb + F_t s_A on A, F_n rBb - F_t s_B on B; backward flank
+F_n rAb + F_t s_A on A, -F_n rBb - F_t s_B on B.  Bodies: J dw/dt = tau - c w + mesh torques +
+shaft torques; shaft j adds -tau_j to body a and +tau_j to body b,
+tau_j = k (q_j + twist_start) + d dq_j/dt.
+
+INTEGRATION as gearmesh_ref: solve_ivp (DOP853) with the carrying set of EVERY mesh fixed inside
+a call (the Johnson force extended oddly through 0, the damping factor unclamped, so the
+right-hand side is smooth there); every event that can change any mesh's set is terminal:
+each flank's delta through 0; the gate boundaries (periodic functions sin(pi xi/p_b), zero at
+every pair's boundary: s_A = s_b, which also covers the window boundary s_b - m_c p_b, and
+s_B = L - s_a); damped release 1 +- chi v = 0; input-table breakpoints.  Event functions are
+signed to be >= 0 just after a restart (ties broken by first, then second time derivatives,
+gearmesh_ref's rule), only + -> - crossings are detected; non-terminal guards at the zeros of
+each mesh's v and of the meshed bodies' speeds catch a sign change hidden inside one step, and
+the step is capped so no gate coordinate moves more than p_b/8 per step.
+
+ENERGY: E_kin = sum J w^2/2; E_el = the carrying pairs' width * int_0^delta N + the shafts'
+k twist^2/2; W_ext = int sum (tau_i - c_i w_i) w_i (inputs and drag, as the single mesh's
+W_ext includes c_load); W_loss = int (mesh P_loss + shafts' d (dq/dt)^2); E_gate = the sum of
+the jumps of E_el at events (pairs entering or leaving the gate loaded, damped releases);
+energy_residual = E_kin + E_el + W_loss - W_ext - E_gate - (its value at t = 0).
+
+Readings of the spec where it leaves room are listed in the report and marked in the code.
+"""
+
+from __future__ import annotations
+
+import bisect
+import csv
+import math
+import os
+import re
+import tomllib
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.integrate import quad, solve_ivp
+
+from . import gearmesh_ref as G
+from . import deviations_ref as D
+
+CAPACITY = {"body": 8, "shaft": 7, "mesh": 6}
+
+# Single-mesh parameters that do not belong to a pair (spec section 1): bodies carry inertia,
+# drag, start speed and torque; solver and tolerance belong to the whole train.
+NOT_PER_MESH = {"J_A", "J_B", "c_load", "w_A_start", "w_B_start", "tau_A", "tau_B",
+                "solver", "rel_tol", "restitution"}
+MESH_PAIR_KEYS = [k for k in G.DEFAULTS if k not in NOT_PER_MESH]
+MESH_PLACE_KEYS = {"A": 0, "B": 0, "center_angle": 0.0, "mount_A": 0.0, "mount_B": 0.0}
+SHAFT_KEYS = ("a", "b", "k", "d", "twist_start")
+BODY_KEYS = ("J", "c", "w_start", "tau")
+INTEGER_KEYS = {"n_bodies", "n_shafts", "n_meshes", "solver"}
+TOP_KEYS = {"n_bodies": 4, "n_shafts": 1, "n_meshes": 2, "rel_tol": 1e-6, "solver": 1}
+
+
+def train_defaults() -> dict:
+    """The defaults agreed with the Rust side: a two-stage reducer (paper-geometry 22/33 meshes)
+    with a compliant intermediate shaft between bodies 2 and 3."""
+    d = dict(TOP_KEYS)
+    J = [0.4, 2.0, 0.4, 2.0] + [1.0] * 4
+    w = [100.0, 100.0 / 1.5, 100.0 / 1.5, 100.0 / 2.25] + [0.0] * 4
+    for i in range(1, CAPACITY["body"] + 1):
+        d[f"body[{i}].J"] = J[i - 1]
+        d[f"body[{i}].c"] = 2.0 if i == 4 else 0.0
+        d[f"body[{i}].w_start"] = w[i - 1]
+        d[f"body[{i}].tau"] = 100.0 if i == 1 else 0.0
+    d["body[1].angle_start"] = 0.0
+    for j in range(1, CAPACITY["shaft"] + 1):
+        a, b, dd = (2, 3, 5.0) if j == 1 else (1, 2, 0.0)
+        d.update({f"shaft[{j}].a": a, f"shaft[{j}].b": b, f"shaft[{j}].k": 1e5,
+                  f"shaft[{j}].d": dd, f"shaft[{j}].twist_start": 0.0})
+    for m in range(1, CAPACITY["mesh"] + 1):
+        d.update({f"mesh[{m}].A": 2 * m - 1, f"mesh[{m}].B": 2 * m, f"mesh[{m}].center_angle": 0.0,
+                  f"mesh[{m}].mount_A": 0.0, f"mesh[{m}].mount_B": 0.0})
+        for k in MESH_PAIR_KEYS:
+            d[f"mesh[{m}].{k}"] = G.DEFAULTS[k]
+        d[f"mesh[{m}].chi"] = 10.0   # agreed train default (the single mesh's default is 0)
+    return d
+
+
+DEFAULTS = train_defaults()
+_NAME = re.compile(r"^(body|shaft|mesh)\[(\d+)\]\.(\w+)$")
+
+
+def make_train_params(start_values: dict | None = None) -> dict:
+    """Defaults overridden by start_values (FMI names); types checked like gearmesh_ref."""
+    p = dict(DEFAULTS)
+    for key, v in (start_values or {}).items():
+        if key not in DEFAULTS:
+            m = _NAME.match(key)
+            if m and int(m.group(2)) > CAPACITY[m.group(1)]:
+                raise KeyError(f"{key}: index {m.group(2)} beyond the capacity "
+                               f"{CAPACITY[m.group(1)]} of {m.group(1)} elements")
+            raise KeyError(f"unknown train parameter/input {key!r}")
+        m = _NAME.match(key)
+        base = m.group(3) if m else key
+        if m and m.group(1) == "mesh" and base in G.BOOLEAN_PARAMS:
+            if not isinstance(v, bool):
+                raise TypeError(f"{key} must be a boolean")
+        elif m and m.group(1) == "mesh" and base in G.STRING_PARAMS:
+            if not isinstance(v, str):
+                raise TypeError(f"{key} must be a string")
+        elif (key in INTEGER_KEYS or (m and m.group(1) == "mesh" and
+                                      (base in G.INTEGER_PARAMS or base in ("A", "B")))
+              or (m and m.group(1) == "shaft" and base in ("a", "b"))):
+            if isinstance(v, bool) or int(v) != v:
+                raise TypeError(f"{key} must be an integer")
+            v = int(v)
+        else:
+            v = float(v)
+        p[key] = v
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+# Inputs: body[i].tau, piecewise linear between table rows (fmpy semantics, as InputTable)
+# --------------------------------------------------------------------------------------------
+
+class TrainInputs:
+    def __init__(self, times, values):
+        """times: list of t; values: array (len(times), n_bodies) of body torques."""
+        self.t = [float(x) for x in times]
+        self.v = np.asarray(values, dtype=float).reshape(len(self.t), -1)
+        if any(t2 < t1 for t1, t2 in zip(self.t, self.t[1:])):
+            raise ValueError("input table times must be non-decreasing")
+        self.breaks = sorted(set(self.t))
+
+    @classmethod
+    def constant(cls, taus):
+        return cls([0.0], [list(taus)])
+
+    @classmethod
+    def from_csv(cls, path, defaults):
+        """Columns time and any body[i].tau; absent columns keep the parameter's value."""
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))
+        head = [h.strip().strip('"') for h in rows[0]]
+        data = [[float(x) for x in r] for r in rows[1:] if r and any(c.strip() for c in r)]
+        col = {h: i for i, h in enumerate(head)}
+        vals = []
+        for r in data:
+            vals.append([r[col[f"body[{i + 1}].tau"]] if f"body[{i + 1}].tau" in col else defaults[i]
+                         for i in range(len(defaults))])
+        return cls([r[col["time"]] for r in data], vals)
+
+    def next_break(self, t):
+        i = bisect.bisect_right(self.breaks, t)
+        return self.breaks[i] if i < len(self.breaks) else math.inf
+
+    def segment(self, t):
+        """(t0, value at t0, slope) valid on [t, next_break(t))."""
+        ts, v = self.t, self.v
+        zero = np.zeros(v.shape[1])
+        if len(ts) == 1 or t < ts[0]:
+            return (t, v[0].copy(), zero)
+        i = bisect.bisect_right(ts, t) - 1
+        if i >= len(ts) - 1:
+            return (t, v[-1].copy(), zero)
+        return (ts[i], v[i].copy(), (v[i + 1] - v[i]) / (ts[i + 1] - ts[i]))
+
+    def max_abs(self):
+        return np.max(np.abs(self.v), axis=0)
+
+
+def tau_at(seg, t):
+    return seg[1] + seg[2] * (t - seg[0])
+
+
+# --------------------------------------------------------------------------------------------
+# Elements
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class Body:
+    J: float
+    c: float
+    w0: float
+    tau: float
+
+
+@dataclass
+class Shaft:
+    j: int          # 1-based index
+    a: int          # 0-based body indices
+    b: int
+    k: float
+    d: float
+    twist0: float
+
+
+@dataclass
+class MeshState:
+    """Logical state of one mesh between two restarts."""
+    on_f: bool
+    on_b: bool
+    kf: tuple       # A tooth numbers n_A of the carrying forward pairs
+    kb: tuple       # same, backward pairs
+    sig: dict = field(default_factory=dict)   # sign multipliers of the event functions
+
+    @property
+    def key(self):
+        return (self.kf, self.kb)
+
+
+@dataclass
+class Config:
+    meshes: tuple   # MeshState per mesh
+    acc: np.ndarray = None   # body accelerations at the restart (for tie breaking)
+
+    @property
+    def key(self):
+        return tuple(ms.key for ms in self.meshes)
+
+
+class TrainMesh:
+    """One gear pair of the train: geometry, tooth offsets, pair enumeration, forces."""
+
+    def __init__(self, m: int, p: dict, A: int, B: int, beta: float, mount_A: float, mount_B: float):
+        self.m = m                      # 1-based index
+        self.p = p                      # single-mesh parameter dict (make_params)
+        self.g = G.Geometry(p)
+        self.A, self.B = A, B           # 0-based body indices
+        self.beta, self.mount_A, self.mount_B = beta, mount_A, mount_B
+        self.dte0 = p["dte_start"]
+        self.width, self.chi, self.mu, self.v_reg = p["width"], p["chi"], p["mu"], p["v_reg"]
+        self.bwd = bool(p["backward_contacts"])
+        g = self.g
+        self.window_active = g.eps > g.m_c + 1e-12
+
+    # ---------------------------------------------------------------- placement (spec 3-4)
+    def chi_of(self, psi, mount):
+        return self.s * (psi + mount - self.beta)
+
+    def psi_of(self, chi, mount):
+        return self.s * chi + self.beta - mount      # inverse of chi_of (s = +-1)
+
+    def place_other(self, psi_known, known_is_A):
+        """psi(0) of the gear not yet placed: forward delta of the pairs = dte_start, reduced to
+        (-pi/z, pi/z] of that gear by whole teeth (spec section 4)."""
+        g = self.g
+        aw = g.alpha_w
+        # delta(i, j) = rAb(aw - chiA - i dA + tA/2) + rBb(aw + pi - chiB - j dB + tB/2) - L
+        # (mesh-frame tooth indices i, j); any integer i + j: choose 0, then reduce psi.
+        if known_is_A:
+            chiA = self.chi_of(psi_known, self.mount_A)
+            chiB = (g.rAb * (aw - chiA + g.tA / 2) + g.rBb * (aw + math.pi + g.tB / 2)
+                    - g.L - self.dte0) / g.rBb
+            return reduce_angle(self.psi_of(chiB, self.mount_B), g.zB)
+        chiB = self.chi_of(psi_known, self.mount_B)
+        chiA = (g.rAb * (aw + g.tA / 2) + g.rBb * (aw + math.pi - chiB + g.tB / 2)
+                - g.L - self.dte0) / g.rAb
+        return reduce_angle(self.psi_of(chiA, self.mount_A), g.zA)
+
+    def set_offsets(self, psiA0, psiB0):
+        """Tooth offsets SfA, SfB, SbA, SbB and the pairings K_f, K_b (module docstring)."""
+        g = self.g
+        aw, pb = g.alpha_w, g.p_b
+        chiA0 = self.chi_of(psiA0, self.mount_A)
+        chiB0 = self.chi_of(psiB0, self.mount_B)
+        self.SfA = g.rAb * (aw - chiA0 + g.tA / 2)
+        self.SfB = g.rBb * (aw + math.pi - chiB0 + g.tB / 2)
+        self.SbA = g.rAb * (aw + chiA0 + g.tA / 2)
+        self.SbB = g.rBb * (aw - math.pi + chiB0 + g.tB / 2)
+        # forward: delta = SfA + SfB - L - K_f p_b (at t = 0) = dte_start
+        cf = self.SfA + self.SfB - g.L - self.dte0
+        self.Kf = round(cf / pb)
+        # backward: delta_b = SbA + SbB - L + K_b p_b = -backlash - dte_start
+        cb = -g.backlash - self.dte0 - (self.SbA + self.SbB - g.L)
+        self.Kb = round(cb / pb)
+        res_f, res_b = cf - self.Kf * pb, cb - self.Kb * pb
+        # rounding of O(1) angles times radii: a few 1e-16 m; 1e-12 m flags a wrong identity
+        if abs(res_f) > 1e-12 or abs(res_b) > 1e-12:
+            raise RuntimeError(f"mesh[{self.m}]: placement residuals {res_f!r}, {res_b!r} m "
+                               "(forward/backward pairing inconsistent with the tooth thickness)")
+
+    # ---------------------------------------------------------------- pair geometry
+    def sA_f(self, uA, n):
+        return self.SfA + uA + n * self.g.p_b
+
+    def sB_f(self, uB, n):         # n: A tooth number; the B tooth is n + K_f
+        return self.SfB - uB - (n + self.Kf) * self.g.p_b
+
+    def sA_b(self, uA, n):
+        return self.SbA - uA - n * self.g.p_b
+
+    def sB_b(self, uB, n):
+        return self.SbB + uB + (n + self.Kb) * self.g.p_b
+
+    def candidates(self, sA0, sgn):
+        """A tooth numbers n whose s_A = sA0 + sgn n p_b can lie in [s_b - 2 p_b, s_b] (the
+        gate and the window lie there, eps <= 2), with a margin of one pair each side."""
+        g = self.g
+        a = (g.s_b - 2.0 * g.p_b - sA0) / g.p_b * sgn
+        b = (g.s_b - sA0) / g.p_b * sgn
+        return range(math.floor(min(a, b)) - 1, math.ceil(max(a, b)) + 2)
+
+    def object_name(self, flank, n):
+        mc = self.g.m_c
+        if flank == 1:
+            return "f1" if n % mc == 0 else "f2"
+        return "b1" if n % mc == 1 % mc else "b2"
+
+    # ---------------------------------------------------------------- forces
+    def torques(self, uA, dte, wA, wB, v, kf, kb, detail=False):
+        """Mesh torques on A and B (forward sense) and P_loss for fixed carrying sets."""
+        g = self.g
+        rAb, rBb, L = g.rAb, g.rBb, g.L
+        mA = mB = ploss = 0.0
+        forces = []
+        for flank, ks in ((1, kf), (-1, kb)):
+            if not ks:
+                continue
+            d, dd = (dte, v) if flank == 1 else (-g.backlash - dte, -v)
+            # odd extension through 0: smooth inside a segment, never used past an event
+            N = G.johnson_N(d, L + d, g.E_star) if d >= 0.0 else -G.johnson_N(-d, L - d, g.E_star)
+            Fn = self.width * N * (1.0 + self.chi * dd)
+            ploss += len(ks) * self.width * N * self.chi * dd * dd
+            for n in ks:
+                sA = self.sA_f(uA, n) if flank == 1 else self.sA_b(uA, n)
+                sB = L + d - sA
+                if self.mu != 0.0:
+                    vs = -wA * sA + wB * sB       # paper frame: omega_A = -w_A, omega_B = w_B
+                    Ft = self.mu * math.tanh(vs / self.v_reg) * Fn
+                    ploss += Ft * vs
+                else:
+                    Ft = 0.0
+                if flank == 1:
+                    mA += -Fn * rAb + Ft * sA
+                    mB += Fn * rBb - Ft * sB
+                else:
+                    mA += Fn * rAb + Ft * sA
+                    mB += -Fn * rBb - Ft * sB
+                if detail:
+                    forces.append((flank, n, Fn))
+        if detail:
+            return mA, mB, ploss, forces
+        return mA, mB, ploss
+
+    def elastic_energy(self, dte, ms):
+        g = self.g
+        U = 0.0
+        if ms.kf:
+            U += len(ms.kf) * pair_energy(self, dte)
+        if ms.kb:
+            U += len(ms.kb) * pair_energy(self, -g.backlash - dte)
+        return U
+
+
+_ENERGY_CACHE = {}
+
+
+def pair_energy(mesh, delta):
+    """width * int_0^delta N(s; rho = L + s) ds [J] (0 for delta <= 0)."""
+    if delta <= 0.0:
+        return 0.0
+    g = mesh.g
+    key = (id(mesh), delta)
+    if key not in _ENERGY_CACHE:
+        val, _ = quad(lambda s: G.johnson_N(s, g.L + s, g.E_star), 0.0, delta,
+                      epsabs=0.0, epsrel=1e-13, limit=200)
+        _ENERGY_CACHE[key] = mesh.width * val
+    return _ENERGY_CACHE[key]
+
+
+def reduce_angle(psi, z):
+    """psi - k 2pi/z in (-pi/z, pi/z]."""
+    P = 2.0 * math.pi / z
+    r = psi - P * round(psi / P)
+    if r <= -P / 2:
+        r += P
+    elif r > P / 2:
+        r -= P
+    return r
+
+
+# --------------------------------------------------------------------------------------------
+# Result
+# --------------------------------------------------------------------------------------------
+
+@dataclass
+class Result:
+    names: list
+    table: np.ndarray      # grid rows + two rows (before, after) at each event, time-sorted
+    events: list           # (t, y, cfg_before, cfg_after), merged per instant
+    n_restarts: int
+    n_missed: int = 0
+    n_hidden: int = 0
+    train: "GearTrain" = None
+
+    def column(self, name):
+        return self.table[:, self.names.index(name)]
+
+    def grid(self):
+        t = self.table[:, 0]
+        keep = np.ones(len(t), bool)
+        keep[1:] = t[1:] != t[:-1]
+        keep[:-1] &= t[:-1] != t[1:]
+        return self.table[keep]
+
+    def pair_changes(self):
+        """Per event and mesh, the pairs that started or stopped carrying:
+        (t, m, flank, n_A, +1 entering / -1 leaving, s_A, on_before, on_after)."""
+        tr = self.train
+        out = []
+        for t, y, cb, ca in self.events:
+            th = tr.T @ y[:tr.n]
+            for mesh, b, a in zip(tr.meshes, cb.meshes, ca.meshes):
+                uA = mesh.g.rAb * th[mesh.A]
+                for flank, kb_, ka_, on_b, on_a in ((1, b.kf, a.kf, b.on_f, a.on_f),
+                                                    (-1, b.kb, a.kb, b.on_b, a.on_b)):
+                    sA = mesh.sA_f if flank == 1 else mesh.sA_b
+                    for n in sorted(set(ka_) - set(kb_)):
+                        out.append((t, mesh.m, flank, n, +1, sA(uA, n), on_b, on_a))
+                    for n in sorted(set(kb_) - set(ka_)):
+                        out.append((t, mesh.m, flank, n, -1, sA(uA, n), on_b, on_a))
+        return out
+
+    def write_csv(self, path):
+        write_table_csv(path, self.names, self.table)
+
+
+def write_table_csv(path, names, table):
+    ints = {i for i, n in enumerate(names) if n.endswith(".n_fwd") or n.endswith(".n_bwd")}
+    with open(path, "w", newline="") as f:
+        f.write(",".join(f'"{n}"' for n in names) + "\n")
+        for row in table:
+            f.write(",".join(str(int(round(v))) if i in ints else f"{v:.15g}"
+                             for i, v in enumerate(row)) + "\n")
+
+
+read_table_csv = G.read_table_csv
+
+
+# --------------------------------------------------------------------------------------------
+# The train
+# --------------------------------------------------------------------------------------------
+
+class GearTrain:
+    TOL_DELTA = G.GearMesh.TOL_DELTA
+    TOL_POS = G.GearMesh.TOL_POS
+    TOL_REL = G.GearMesh.TOL_REL
+    _side = G.GearMesh._side          # tie rule: the single reference's, unchanged
+
+    def __init__(self, start_values: dict | None = None):
+        self.p = p = make_train_params(start_values)
+        nb, ns, nm = p["n_bodies"], p["n_shafts"], p["n_meshes"]
+        self._check_counts(nb, ns, nm)
+        self.nb, self.ns, self.nm = nb, ns, nm
+        self.bodies = [Body(p[f"body[{i}].J"], p[f"body[{i}].c"], p[f"body[{i}].w_start"],
+                            p[f"body[{i}].tau"]) for i in range(1, nb + 1)]
+        for i, b in enumerate(self.bodies, 1):
+            if not (b.J > 0.0 and math.isfinite(b.J)):
+                raise ValueError(f"body[{i}].J = {b.J!r} must be > 0")
+            if not b.c >= 0.0:
+                raise ValueError(f"body[{i}].c = {b.c!r} must be >= 0")
+        self.edges = self._edges()            # (name, a, b) 0-based, meshes first
+        self._check_topology()
+        self.shafts = []
+        for j in range(1, ns + 1):
+            s = Shaft(j, p[f"shaft[{j}].a"] - 1, p[f"shaft[{j}].b"] - 1, p[f"shaft[{j}].k"],
+                      p[f"shaft[{j}].d"], p[f"shaft[{j}].twist_start"])
+            if not (s.k > 0.0 and math.isfinite(s.k)):
+                raise ValueError(f"shaft[{j}].k = {s.k!r} must be > 0")
+            if not s.d >= 0.0:
+                raise ValueError(f"shaft[{j}].d = {s.d!r} must be >= 0")
+            self.shafts.append(s)
+        self.meshes = [self._make_mesh(m) for m in range(1, nm + 1)]
+        self._build_tree()
+        self._place()
+        self.n = nb                           # position coordinates: theta_1 + n_b - 1 edges
+
+    # ---------------------------------------------------------------- validation
+    @staticmethod
+    def _check_counts(nb, ns, nm):
+        bad = []
+        if not 1 <= nb <= CAPACITY["body"]:
+            bad.append(f"n_bodies = {nb} (1..{CAPACITY['body']})")
+        if not 0 <= ns <= CAPACITY["shaft"]:
+            bad.append(f"n_shafts = {ns} (0..{CAPACITY['shaft']})")
+        if not 0 <= nm <= CAPACITY["mesh"]:
+            bad.append(f"n_meshes = {nm} (0..{CAPACITY['mesh']})")
+        if bad:
+            raise ValueError("element counts out of range: " + ", ".join(bad))
+
+    def _edges(self):
+        p, out = self.p, []
+        for m in range(1, self.p["n_meshes"] + 1):
+            out.append((f"mesh[{m}]", p[f"mesh[{m}].A"], p[f"mesh[{m}].B"], "A", "B"))
+        for j in range(1, self.p["n_shafts"] + 1):
+            out.append((f"shaft[{j}]", p[f"shaft[{j}].a"], p[f"shaft[{j}].b"], "a", "b"))
+        bad = []
+        for name, a, b, la, lb in out:
+            for lab, v in ((la, a), (lb, b)):
+                if not 1 <= v <= self.nb:
+                    bad.append(f"{name}.{lab} = {v} is not a body index in 1..{self.nb}")
+            if a == b:
+                bad.append(f"{name} joins body[{a}] to itself ({name}.{la} = {name}.{lb} = {a})")
+        if bad:
+            raise ValueError("invalid train topology: " + "; ".join(bad))
+        return [(name, a - 1, b - 1) for name, a, b, _la, _lb in out]
+
+    def _check_topology(self):
+        """Tree: no cycle, every body connected to body 1.  Names the elements."""
+        adj = {i: [] for i in range(self.nb)}
+        problems = []
+        for name, a, b in self.edges:
+            path = _tree_path(adj, a, b)
+            if path is not None:
+                cyc = path + [name]
+                problems.append("cycle through " + ", ".join(cyc) +
+                                " (a cycle over-constrains rigid rotation; planetary sets are out of scope)")
+            else:
+                adj[a].append((b, name))
+                adj[b].append((a, name))
+        seen = {0}
+        todo = deque([0])
+        while todo:
+            i = todo.popleft()
+            for j, _ in adj[i]:
+                if j not in seen:
+                    seen.add(j)
+                    todo.append(j)
+        lost = [f"body[{i + 1}]" for i in range(self.nb) if i not in seen]
+        if lost:
+            problems.append(", ".join(lost) + " not connected to body[1] by shafts or meshes")
+        if problems:
+            raise ValueError("the train is not a tree: " + "; ".join(problems))
+
+    def _make_mesh(self, m):
+        p = self.p
+        sv = {k: p[f"mesh[{m}].{k}"] for k in MESH_PAIR_KEYS}
+        mp = G.make_params(sv)
+        cm = mp["contact_model"]
+        if cm == 2:
+            raise ValueError(f"mesh[{m}].contact_model = 2: rigid contact is not available in a "
+                             "gear train (gear-train.md section 1); use 1 (Johnson) or 3")
+        if cm == 3 or D.deviations_active(mp):
+            raise NotImplementedError(f"mesh[{m}]: contact model 3 and shape deviations are not "
+                                      "implemented in the train reference (contact model 1 only)")
+        if cm != 1:
+            raise ValueError(f"mesh[{m}].contact_model = {cm}: must be 1 or 3")
+        try:
+            return TrainMesh(m, mp, p[f"mesh[{m}].A"] - 1, p[f"mesh[{m}].B"] - 1,
+                             p[f"mesh[{m}].center_angle"], p[f"mesh[{m}].mount_A"],
+                             p[f"mesh[{m}].mount_B"])
+        except G.GeometryError as e:
+            raise G.GeometryError(f"mesh[{m}]: {e}") from None
+
+    # ---------------------------------------------------------------- tree coordinates
+    def _build_tree(self):
+        """BFS from body 1: senses sigma, parent edges, theta = T x, x = E theta."""
+        nb = self.nb
+        self.sigma = [0] * nb
+        self.sigma[0] = -1
+        self.order = [0]
+        self.parent = [None] * nb        # (edge index, parent body)
+        adj = {i: [] for i in range(nb)}
+        for k, (_name, a, b) in enumerate(self.edges):
+            adj[a].append((k, b))
+            adj[b].append((k, a))
+        todo = deque([0])
+        while todo:
+            i = todo.popleft()
+            for k, j in adj[i]:
+                if j == 0 or self.parent[j] is not None:
+                    continue
+                self.parent[j] = (k, i)
+                self.sigma[j] = -self.sigma[i] if k < self.nm else self.sigma[i]
+                self.order.append(j)
+                todo.append(j)
+        T = np.zeros((nb, nb))
+        T[0, 0] = 1.0
+        E = np.zeros((nb, nb))
+        E[0, 0] = 1.0
+        for k, (_name, a, b) in enumerate(self.edges):
+            if k < self.nm:
+                g = self.meshes[k].g
+                E[k + 1, a], E[k + 1, b] = g.rAb, -g.rBb       # e = rAb thA - rBb thB
+            else:
+                E[k + 1, a], E[k + 1, b] = 1.0, -1.0           # q = tha - thb
+        for j in self.order[1:]:
+            k, i = self.parent[j]
+            unit = np.zeros(nb)
+            unit[k + 1] = 1.0
+            _name, a, b = self.edges[k]
+            if k < self.nm:
+                g = self.meshes[k].g
+                T[j] = (g.rAb * T[i] - unit) / g.rBb if j == b else (unit + g.rBb * T[i]) / g.rAb
+            else:
+                T[j] = T[i] - unit if j == b else T[i] + unit
+        if not np.allclose(E @ T, np.eye(nb), rtol=0, atol=1e-12):
+            raise RuntimeError("tree coordinates: E T != I")
+        self.T, self.E = T, E
+        for mesh in self.meshes:
+            mesh.s = -self.sigma[mesh.A]                # paper frame: mirrored when sigma_A = +1
+            mesh.ie = self.meshes.index(mesh) + 1       # its edge coordinate's index in x
+            mesh.cA = mesh.g.rAb * T[mesh.A]            # u_A = cA . x
+            mesh.cB = mesh.g.rBb * T[mesh.B]
+        for s in self.shafts:
+            s.iq = self.nm + s.j                        # index of q_j in x
+            if self.sigma[s.a] != self.sigma[s.b]:      # impossible in a tree (spec section 2)
+                raise RuntimeError(f"shaft[{s.j}] joins bodies of opposite senses")
+
+    def _place(self):
+        """psi_i(0) by walking the tree from body 1 (spec section 4)."""
+        psi = [None] * self.nb
+        psi[0] = self.p["body[1].angle_start"]
+        for j in self.order[1:]:
+            k, i = self.parent[j]
+            if k < self.nm:
+                mesh = self.meshes[k]
+                psi[j] = mesh.place_other(psi[i], known_is_A=(i == mesh.A))
+            else:
+                s = self.shafts[k - self.nm]
+                tw = s.twist0
+                psi[j] = psi[i] - self.sigma[s.a] * tw if i == s.a else psi[i] + self.sigma[s.a] * tw
+        self.psi0 = psi
+        for mesh in self.meshes:
+            mesh.set_offsets(psi[mesh.A], psi[mesh.B])
+
+    def initial_state(self):
+        w = np.array([b.w0 for b in self.bodies])
+        xd = self.E @ w
+        return np.concatenate([np.zeros(self.n), xd, [0.0, 0.0]])
+
+    # ---------------------------------------------------------------- dynamics
+    def forces(self, t, y, cfg, tau):
+        """Generalized torques on the bodies and the power lost, for fixed carrying sets."""
+        n = self.n
+        x, xd = y[:n], y[n:2 * n]
+        th, w = self.T @ x, self.T @ xd
+        Q = tau - np.array([b.c for b in self.bodies]) * w
+        pl = 0.0
+        for mesh, ms in zip(self.meshes, cfg.meshes):
+            if ms.kf or ms.kb:
+                mA, mB, pp = mesh.torques(mesh.g.rAb * th[mesh.A], x[mesh.ie] + mesh.dte0,
+                                          w[mesh.A], w[mesh.B], xd[mesh.ie], ms.kf, ms.kb)
+                Q[mesh.A] += mA
+                Q[mesh.B] += mB
+                pl += pp
+        for s in self.shafts:
+            ts = s.k * (x[s.iq] + s.twist0) + s.d * xd[s.iq]
+            Q[s.a] -= ts
+            Q[s.b] += ts
+            pl += s.d * xd[s.iq] ** 2
+        return Q, pl, w
+
+    def make_rhs(self, cfg, seg):
+        n = self.n
+        T, E = self.T, self.E
+        J = np.array([b.J for b in self.bodies])
+        c = np.array([b.c for b in self.bodies])
+        t0, v0, dv = seg
+        active = [(mesh, ms.kf, ms.kb) for mesh, ms in zip(self.meshes, cfg.meshes) if ms.kf or ms.kb]
+        shafts = self.shafts
+
+        def rhs(t, y):
+            x, xd = y[:n], y[n:2 * n]
+            w = T @ xd
+            tau = v0 + dv * (t - t0)
+            Q = tau - c * w
+            pl = 0.0
+            if active:
+                th = T @ x
+                for mesh, kf, kb in active:
+                    A, B = mesh.A, mesh.B
+                    mA, mB, pp = mesh.torques(mesh.g.rAb * th[A], x[mesh.ie] + mesh.dte0,
+                                              w[A], w[B], xd[mesh.ie], kf, kb)
+                    Q[A] += mA
+                    Q[B] += mB
+                    pl += pp
+            for s in shafts:
+                ts = s.k * (x[s.iq] + s.twist0) + s.d * xd[s.iq]
+                Q[s.a] -= ts
+                Q[s.b] += ts
+                pl += s.d * xd[s.iq] ** 2
+            xdd = E @ (Q / J)
+            out = np.empty(2 * n + 2)
+            out[:n] = xd
+            out[n:2 * n] = xdd
+            out[2 * n] = float(np.dot(tau - c * w, w))
+            out[2 * n + 1] = pl
+            return out
+        return rhs
+
+    def accelerations(self, t, y, cfg, tau):
+        Q, _pl, _w = self.forces(t, y, cfg, tau)
+        return Q / np.array([b.J for b in self.bodies])
+
+    # ---------------------------------------------------------------- classification
+    def _mesh_kin(self, mesh, y, acc):
+        n = self.n
+        x, xd = y[:n], y[n:2 * n]
+        th, w = self.T @ x, self.T @ xd
+        g = mesh.g
+        A, B = mesh.A, mesh.B
+        return dict(uA=g.rAb * th[A], uB=g.rBb * th[B], wA=w[A], wB=w[B], aA=acc[A], aB=acc[B],
+                    e=x[mesh.ie] + mesh.dte0, v=xd[mesh.ie], e2=g.rAb * acc[A] - g.rBb * acc[B])
+
+    def _decide_mesh(self, mesh, k, tie_aware):
+        """Carrying pairs of one mesh just after now (k: its kinematics)."""
+        g = mesh.g
+        rAb, rBb, pb = g.rAb, g.rBb, g.p_b
+        uA, uB, wA, wB, aA, aB = k["uA"], k["uB"], k["wA"], k["wB"], k["aA"], k["aB"]
+        e, v, e2 = k["e"], k["v"], k["e2"]
+
+        def side(c, c1, c2, tol):
+            return self._side(c, c1, c2, tol) if tie_aware else c >= -tol
+
+        on_f = side(e, v, e2, self.TOL_DELTA)
+        on_b = mesh.bwd and side(-g.backlash - e, -v, -e2, self.TOL_DELTA)
+        sig = {"df": 1.0 if on_f else -1.0}
+        if mesh.bwd:
+            sig["db"] = 1.0 if on_b else -1.0
+        tipB = g.L - g.s_a                      # B's tip on the line of action
+        lo_win = g.s_b - g.m_c * pb             # lower end of the tracking window
+        kf, kb = [], []
+        if on_f:
+            rel = True
+            if mesh.chi > 0.0:
+                rel = side(1.0 + mesh.chi * v, mesh.chi * e2, 0.0, self.TOL_REL)
+                sig["rf"] = 1.0 if rel else -1.0
+            for n in mesh.candidates(mesh.sA_f(uA, 0), 1):
+                sA, sB = mesh.sA_f(uA, n), mesh.sB_f(uB, n)
+                ok = (side(g.s_b - sA, -rAb * wA, -rAb * aA, self.TOL_POS)
+                      and side(tipB - sB, rBb * wB, rBb * aB, self.TOL_POS))
+                if ok and mesh.window_active:
+                    ok = side(sA - lo_win, rAb * wA, rAb * aA, self.TOL_POS)
+                if ok and rel:
+                    kf.append(n)
+            sig["uf"] = self._periodic_sign(pb, mesh.sA_f(uA, 0) - g.s_b, rAb * wA, rAb * aA)
+            sig["lf"] = self._periodic_sign(pb, mesh.sB_f(uB, -mesh.Kf) - tipB, -rBb * wB, -rBb * aB)
+        if on_b:
+            rel = True
+            if mesh.chi > 0.0:
+                rel = side(1.0 - mesh.chi * v, -mesh.chi * e2, 0.0, self.TOL_REL)
+                sig["rb"] = 1.0 if rel else -1.0
+            for n in mesh.candidates(mesh.sA_b(uA, 0), -1):
+                sA, sB = mesh.sA_b(uA, n), mesh.sB_b(uB, n)
+                ok = (side(g.s_b - sA, rAb * wA, rAb * aA, self.TOL_POS)
+                      and side(tipB - sB, -rBb * wB, -rBb * aB, self.TOL_POS))
+                if ok and mesh.window_active:
+                    ok = side(sA - lo_win, -rAb * wA, -rAb * aA, self.TOL_POS)
+                if ok and rel:
+                    kb.append(n)
+            sig["ub"] = self._periodic_sign(pb, mesh.sA_b(uA, 0) - g.s_b, -rAb * wA, -rAb * aA)
+            sig["lb"] = self._periodic_sign(pb, mesh.sB_b(uB, -mesh.Kb) - tipB, rBb * wB, rBb * aB)
+        return MeshState(on_f, on_b, tuple(kf), tuple(kb), sig)
+
+    def _periodic_sign(self, pb, xi, xi1, xi2):
+        """Sign s such that s sin(pi xi/p_b) >= 0 just after now."""
+        n = round(xi / pb)
+        r = xi - n * pb
+        parity = -1.0 if n % 2 else 1.0
+        return parity * (1.0 if self._side(r, xi1, xi2, self.TOL_POS) else -1.0)
+
+    def _decide(self, y, acc, tie_aware=True):
+        states = tuple(self._decide_mesh(m, self._mesh_kin(m, y, acc), tie_aware) for m in self.meshes)
+        return Config(states, acc)
+
+    def classify(self, t, y, tau):
+        """Contact state of every mesh just after a restart: ties are decided by time
+        derivatives, which need the accelerations, which depend on the state: iterate from the
+        state in which every tie counts as inside (as gearmesh_ref._classify)."""
+        prelim = self._decide(y, np.zeros(self.nb), tie_aware=False)
+        cfg = self._decide(y, self.accelerations(t, y, prelim, tau))
+        for _ in range(6):
+            acc = self.accelerations(t, y, cfg, tau)
+            new = self._decide(y, acc)
+            same = new.key == cfg.key and all(
+                a.on_f == b.on_f and a.on_b == b.on_b for a, b in zip(new.meshes, cfg.meshes))
+            if same:
+                return new
+            cfg = new
+        return cfg
+
+    # ---------------------------------------------------------------- events
+    def make_events(self, cfg, y):
+        """Terminal event functions (+ -> -) and non-terminal guards for one segment."""
+        n = self.n
+        evs = []
+        side = self._side
+
+        def add(fn, c, c1, c2, tol, band):
+            # shift a function within a hair of zero to the side it moves to (no re-firing)
+            after = side(c, c1, c2, tol)
+            off = 0.0
+            if after and c < band:
+                off = band - c
+            elif not after and c > -band:
+                off = -(band + c)
+            if off != 0.0:
+                raw = fn
+                fn = lambda t, yy: raw(t, yy) + off
+            fn.terminal = True
+            fn.direction = -1.0
+            fn.band = band
+            evs.append(fn)
+
+        def add_periodic(pb, sig, coef, c0, xi, xi1, xi2):
+            # sig * sin(pi (coef . x + c0)/p_b); xi, xi1, xi2: the argument and its derivatives
+            kp = math.pi / pb
+            s_, c_ = math.sin(kp * xi), math.cos(kp * xi)
+            w1 = kp * xi1
+            val, d1, d2 = sig * s_, sig * c_ * w1, sig * (c_ * kp * xi2 - s_ * w1 * w1)
+            add(lambda t, yy: sig * math.sin(kp * (float(np.dot(coef, yy[:n])) + c0)),
+                val, d1, d2, kp * self.TOL_POS, 1e-12)
+
+        guards = []
+        body_guard = set()
+        for mesh, ms in zip(self.meshes, cfg.meshes):
+            g = mesh.g
+            k = self._mesh_kin(mesh, y, cfg.acc)
+            ie, d0, jb = mesh.ie, mesh.dte0, g.backlash
+            s, pb = ms.sig, g.p_b
+            sdf = s["df"]
+            add(lambda t, yy, sdf=sdf, ie=ie, d0=d0: sdf * (yy[ie] + d0),
+                sdf * k["e"], sdf * k["v"], sdf * k["e2"], self.TOL_DELTA, 1e-20)
+            if mesh.bwd:
+                sdb = s["db"]
+                add(lambda t, yy, sdb=sdb, ie=ie, d0=d0, jb=jb: sdb * (-jb - yy[ie] - d0),
+                    sdb * (-jb - k["e"]), -sdb * k["v"], -sdb * k["e2"], self.TOL_DELTA, 1e-20)
+            tipB = g.L - g.s_a
+            rAb, rBb = g.rAb, g.rBb
+            if ms.on_f:
+                # s_A(n) - s_b = SfA - s_b + u_A (mod p_b);  s_B(n) - tipB = SfB - tipB - u_B ...
+                add_periodic(pb, s["uf"], mesh.cA, mesh.SfA - g.s_b,
+                             mesh.sA_f(k["uA"], 0) - g.s_b, rAb * k["wA"], rAb * k["aA"])
+                add_periodic(pb, s["lf"], -mesh.cB, mesh.SfB - tipB,
+                             mesh.sB_f(k["uB"], -mesh.Kf) - tipB, -rBb * k["wB"], -rBb * k["aB"])
+                if mesh.chi > 0.0:
+                    srf, chi, iv = s["rf"], mesh.chi, n + ie
+                    add(lambda t, yy, srf=srf, chi=chi, iv=iv: srf * (1.0 + chi * yy[iv]),
+                        srf * (1.0 + chi * k["v"]), srf * chi * k["e2"], 0.0, self.TOL_REL, 1e-14)
+            if ms.on_b:
+                add_periodic(pb, s["ub"], -mesh.cA, mesh.SbA - g.s_b,
+                             mesh.sA_b(k["uA"], 0) - g.s_b, -rAb * k["wA"], -rAb * k["aA"])
+                add_periodic(pb, s["lb"], mesh.cB, mesh.SbB - tipB,
+                             mesh.sB_b(k["uB"], -mesh.Kb) - tipB, rBb * k["wB"], rBb * k["aB"])
+                if mesh.chi > 0.0:
+                    srb, chi, iv = s["rb"], mesh.chi, n + ie
+                    add(lambda t, yy, srb=srb, chi=chi, iv=iv: srb * (1.0 - chi * yy[iv]),
+                        srb * (1.0 - chi * k["v"]), -srb * chi * k["e2"], 0.0, self.TOL_REL, 1e-14)
+            guards.append(lambda t, yy, iv=n + ie: yy[iv])      # extrema of delta
+            body_guard.update((mesh.A, mesh.B))
+        for i in sorted(body_guard):                          # reversals of gate coordinates
+            row = self.T[i]
+            guards.append(lambda t, yy, row=row: float(np.dot(row, yy[n:2 * n])))
+        for fn in guards:
+            fn.terminal = False
+            fn.direction = 0.0
+        return evs, guards
+
+    @staticmethod
+    def _check_guards(sol, t0, evs, n_guard):
+        """A contact-state change hidden inside one step straddles a guard root (gearmesh_ref's
+        argument: between guard roots each function is monotone).  Returns its time or None."""
+        t_end = sol.t[-1]
+        roots = []
+        for tev in sol.t_events[len(evs):len(evs) + n_guard]:
+            roots.extend(float(x) for x in tev if t0 < x < t_end)
+        if not roots:
+            return None
+        from scipy.optimize import brentq
+        steps = np.asarray(sol.t)
+        for te in sorted(roots):
+            ye = sol.sol(te)
+            bad = [fn for fn in evs if fn(te, ye) < -fn.band]
+            if not bad:
+                continue
+            i = int(np.searchsorted(steps, te, side="left")) - 1
+            t_lo = float(steps[max(i, 0)])
+            best = te
+            for fn in bad:
+                if fn(t_lo, sol.sol(t_lo)) > 0.0:
+                    tc = brentq(lambda tt: fn(tt, sol.sol(tt)), t_lo, te, xtol=1e-16,
+                                rtol=G.BRENT_RTOL)
+                    best = min(best, tc)
+            return best
+        return None
+
+    # ---------------------------------------------------------------- scales
+    def delta_scale(self, mesh, inputs):
+        """Characteristic penetration: one pair under the line force of the largest torques
+        (sum of the input magnitudes and start drags), at least 1 N of line force."""
+        g = mesh.g
+        tmax = float(np.sum(inputs.max_abs())) + sum(b.c * abs(b.w0) for b in self.bodies)
+        F = max(tmax / min(g.rAb, g.rBb), 1.0)
+        return G.johnson_delta(F / mesh.width, g.L, g.E_star)
+
+    def atol(self, inputs, rtol):
+        n = self.n
+        wscale = max([1.0] + [abs(b.w0) for b in self.bodies])
+        tmax = max(1.0, float(np.sum(inputs.max_abs())))
+        pos = np.ones(n)
+        for mesh in self.meshes:
+            pos[mesh.ie] = self.delta_scale(mesh, inputs)
+        for s in self.shafts:
+            pos[s.iq] = max(tmax / s.k, abs(s.twist0), 1e-12)
+        vel = pos * 1e4
+        vel[0] = wscale
+        return np.concatenate([pos, vel, [1.0, 1.0]]) * rtol
+
+    def max_step(self, cfg, y, span):
+        """No gate coordinate moves more than p_b/8 in one step."""
+        n = self.n
+        w = self.T @ y[n:2 * n]
+        acc = cfg.acc
+        h = math.inf
+        for mesh in self.meshes:
+            g = mesh.g
+            vline = (max(abs(g.rAb * w[mesh.A]), abs(g.rBb * w[mesh.B]))
+                     + max(abs(g.rAb * acc[mesh.A]), abs(g.rBb * acc[mesh.B])) * span)
+            h = min(h, g.p_b / (8.0 * vline + 1e-300))
+        return h
+
+    # ---------------------------------------------------------------- main loop
+    def simulate(self, stop_time, output_interval, inputs: TrainInputs | None = None,
+                 rtol=1e-10, method="DOP853", perturb_w1=0.0, max_restarts=2_000_000):
+        """Integrate over [0, stop_time]; sample on k*output_interval and at every event
+        (two rows: before, after).  perturb_w1: added to body 1's start speed (only)."""
+        if inputs is None:
+            inputs = TrainInputs.constant([b.tau for b in self.bodies])
+        n = self.n
+        y = self.initial_state()
+        if perturb_w1:
+            y[n:2 * n] = self.E @ (self.T @ y[n:2 * n] + np.eye(self.nb)[0] * perturb_w1)
+        atol = self.atol(inputs, rtol)
+        n_grid = int(round(stop_time / output_interval))
+        grid = np.arange(n_grid + 1) * output_interval
+        grid[-1] = stop_time
+        t = 0.0
+        seg = inputs.segment(t)
+        cfg = self.classify(t, y, tau_at(seg, t))
+        seg_max = 20.0 * output_interval
+        segments, events = [], []
+        n_restart = n_missed = n_hidden = 0
+        while t < stop_time:
+            seg = inputs.segment(t)
+            t_brk = min(inputs.next_break(t), stop_time)
+            t_hi = min(t_brk, t + seg_max)
+            if stop_time - t_hi < 1e-3 * output_interval:
+                t_hi = t_brk
+            rhs = self.make_rhs(cfg, seg)
+            evs, guards = self.make_events(cfg, y)
+            hmax = min(output_interval, self.max_step(cfg, y, t_hi - t))
+            sol = solve_ivp(rhs, (t, t_hi), y, method=method, rtol=rtol, atol=atol,
+                            events=evs + guards, dense_output=True, max_step=hmax)
+            if sol.status < 0:
+                raise RuntimeError(f"solve_ivp failed at t = {t}: {sol.message}")
+            t_new = float(sol.t[-1])
+            y_new = sol.y[:, -1].copy()
+            located = sol.status == 1
+            t_cut = self._check_guards(sol, t, evs, len(guards))
+            if t_cut is not None:
+                t_new = t_cut
+                y_new = np.asarray(sol.sol(t_cut), dtype=float).copy()
+                located = True
+                n_hidden += 1
+            segments.append((t, t_new, sol.sol, cfg, seg))
+            n_restart += 1
+            if n_restart > max_restarts:
+                raise RuntimeError(f"more than {max_restarts} restarts at t = {t_new}")
+            seg_new = inputs.segment(t_new) if t_new < stop_time else seg
+            new = self.classify(t_new, y_new, tau_at(seg_new, t_new))
+            if new.key != cfg.key:
+                if not located:
+                    n_missed += 1
+                events.append((t_new, y_new, cfg, new))
+            t, y, cfg = t_new, y_new, new
+        return self._sample(grid, segments, events, n_restart, n_missed, n_hidden)
+
+    # ---------------------------------------------------------------- outputs
+    def output_names(self):
+        names = ["time"]
+        for i in range(1, self.nb + 1):
+            names += [f"body[{i}].theta", f"body[{i}].w"]
+        names += [f"shaft[{j}].tau" for j in range(1, self.ns + 1)]
+        for m in range(1, self.nm + 1):
+            names += [f"mesh[{m}].{v}" for v in ("dte", "F_fwd", "F_bwd", "n_fwd", "n_bwd", "F_f1",
+                                                 "F_f2", "F_b1", "F_b2", "P_loss")]
+        return names + ["E_kin", "E_el", "E_gate", "W_ext", "W_loss", "energy_residual"]
+
+    def elastic_energy(self, y, cfg):
+        n = self.n
+        U = 0.0
+        for mesh, ms in zip(self.meshes, cfg.meshes):
+            U += mesh.elastic_energy(y[mesh.ie] + mesh.dte0, ms)
+        for s in self.shafts:
+            U += 0.5 * s.k * (y[s.iq] + s.twist0) ** 2
+        return U
+
+    def outputs(self, t, y, cfg, e_gate):
+        """One output row (without energy_residual, added in _sample)."""
+        n = self.n
+        x, xd = y[:n], y[n:2 * n]
+        th, w = self.T @ x, self.T @ xd
+        row = [t]
+        for i in range(self.nb):
+            row += [th[i], w[i]]
+        for s in self.shafts:
+            row.append(s.k * (x[s.iq] + s.twist0) + s.d * xd[s.iq])
+        for mesh, ms in zip(self.meshes, cfg.meshes):
+            dte = x[mesh.ie] + mesh.dte0
+            _mA, _mB, pl, forces = mesh.torques(mesh.g.rAb * th[mesh.A], dte, w[mesh.A],
+                                                w[mesh.B], xd[mesh.ie], ms.kf, ms.kb, detail=True)
+            F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
+            for flank, nA, Fn in forces:
+                # reported >= 0: at an event instant delta may be -1e-21 on the side that leaves
+                F[mesh.object_name(flank, nA)] += max(Fn, 0.0)
+            row += [dte, F["f1"] + F["f2"], F["b1"] + F["b2"], len(ms.kf), len(ms.kb),
+                    F["f1"], F["f2"], F["b1"], F["b2"], pl]
+        E_kin = 0.5 * float(np.sum([b.J * wi * wi for b, wi in zip(self.bodies, w)]))
+        E_el = self.elastic_energy(y, cfg)
+        row += [E_kin, E_el, e_gate, y[2 * n], y[2 * n + 1]]
+        return row
+
+    def _sample(self, grid, segments, events, n_restart, n_missed, n_hidden):
+        merged = []
+        for ev in events:     # coincident events: one before/after pair
+            if merged and ev[0] == merged[-1][0]:
+                merged[-1] = (ev[0], ev[1], merged[-1][2], ev[3])
+            else:
+                merged.append(ev)
+        merged = [ev for ev in merged if ev[2].key != ev[3].key]
+        # E_gate: jumps of the elastic energy at the events
+        jumps = [self.elastic_energy(ye, ca) - self.elastic_energy(ye, cb)
+                 for _te, ye, cb, ca in merged]
+        cum = np.concatenate([[0.0], np.cumsum(jumps)])
+        ev_t = [ev[0] for ev in merged]
+
+        rows = []
+        seg_t0 = [s[0] for s in segments]
+        for tg in grid:
+            i = bisect.bisect_right(seg_t0, tg) - 1
+            i = min(max(i, 0), len(segments) - 1)
+            t0, t1, solf, c, _seg = segments[i]
+            yy = solf(tg) if t1 > t0 else solf(t0)
+            rows.append(self.outputs(tg, yy, c, cum[bisect.bisect_right(ev_t, tg)]))
+        n_grid_rows = len(rows)
+        for idx, (te, ye, cb, ca) in enumerate(merged):
+            rows.append(self.outputs(te, ye, cb, cum[idx]))
+            rows.append(self.outputs(te, ye, ca, cum[idx + 1]))
+        order = sorted(range(len(rows)), key=lambda i: (rows[i][0], 0 if i < n_grid_rows else 1, i))
+        ev_times = set(ev_t)
+        table = np.array([rows[i] for i in order if not (i < n_grid_rows and rows[i][0] in ev_times)])
+        names = self.output_names()
+        ci = {nm: names.index(nm) for nm in ("E_kin", "E_el", "E_gate", "W_ext", "W_loss")}
+        bal = (table[:, ci["E_kin"]] + table[:, ci["E_el"]] + table[:, ci["W_loss"]]
+               - table[:, ci["W_ext"]] - table[:, ci["E_gate"]])
+        table = np.column_stack([table, bal - bal[0]])
+        return Result(names, table, merged, n_restart, n_missed, n_hidden, train=self)
+
+
+def _tree_path(adj, a, b):
+    """Edge names on the path a -> b in the forest adj, or None if not connected."""
+    prev = {a: None}
+    todo = deque([a])
+    while todo:
+        i = todo.popleft()
+        if i == b:
+            break
+        for j, name in adj[i]:
+            if j not in prev:
+                prev[j] = (i, name)
+                todo.append(j)
+    if b not in prev:
+        return None
+    path = []
+    i = b
+    while prev[i] is not None:
+        i, name = prev[i]
+        path.append(name)
+    return path[::-1]
+
+
+# --------------------------------------------------------------------------------------------
+# Rigid-train helpers: speed ratios and the quasi-static start
+# --------------------------------------------------------------------------------------------
+
+def rigid_ratios(train: GearTrain) -> np.ndarray:
+    """r_i with w_i = r_i w_1 under rigid rolling (w_B = w_A rAb/rBb across a mesh, equal
+    speeds across a shaft)."""
+    r = np.zeros(train.nb)
+    r[0] = 1.0
+    for j in train.order[1:]:
+        k, i = train.parent[j]
+        if k < train.nm:
+            g = train.meshes[k].g
+            r[j] = r[i] * (g.rAb / g.rBb if j == train.meshes[k].B else g.rBb / g.rAb)
+        else:
+            r[j] = r[i]
+    return r
+
+
+def rigid_loads(train: GearTrain, w1: float, tau: np.ndarray):
+    """Rigid train at speed w1 (w_i = r_i w1) under torques tau: the common acceleration a_1,
+    the forward line force F_m of each mesh and the torque T_j of each shaft, from the n body
+    equations J_i r_i a_1 = tau_i - c_i r_i w1 - F_m rAb [i = A] + F_m rBb [i = B] - T_j [i = a]
+    + T_j [i = b] (n unknowns: a_1 and the n - 1 edge loads)."""
+    nb = train.nb
+    r = rigid_ratios(train)
+    M = np.zeros((nb, nb))
+    rhs = np.array([tau[i] - b.c * r[i] * w1 for i, b in enumerate(train.bodies)])
+    for i, b in enumerate(train.bodies):
+        M[i, 0] = b.J * r[i]
+    for k, mesh in enumerate(train.meshes):
+        M[mesh.A, k + 1] += mesh.g.rAb
+        M[mesh.B, k + 1] -= mesh.g.rBb
+    for s in train.shafts:
+        M[s.a, s.iq] += 1.0
+        M[s.b, s.iq] -= 1.0
+    sol = np.linalg.solve(M, rhs)
+    return sol[0], sol[1:train.nm + 1], sol[train.nm + 1:], r
+
+
+def static_delta(mesh: TrainMesh, F: float, n_pairs: int) -> float:
+    """Penetration at which n_pairs pairs carry the line force F > 0 (Johnson law with
+    rho_A + rho_B = L + delta; fixed point as gearmesh_ref.quasi_static_dte)."""
+    g = mesh.g
+    N = F / (n_pairs * mesh.width)
+    d = G.johnson_delta(N, g.L, g.E_star)
+    for _ in range(50):
+        d_new = G.johnson_delta(N, g.L + d, g.E_star)
+        if d_new == d:
+            break
+        d = d_new
+    return d
+
+
+def quasi_static_start(start_values: dict, max_iter: int = 8) -> dict:
+    """Start values for a start without the large first transient: every body at the rigid
+    speed r_i * body[1].w_start, every mesh at the penetration and every shaft at the twist that
+    carry the rigid train's loads at t = 0 (constant torques body[i].tau).  The number of
+    carrying pairs of each mesh depends on the placement, which depends on dte_start and
+    twist_start: iterate until the counts repeat.  Returns a new start-value dict."""
+    sv = dict(start_values)
+    tr = GearTrain(sv)
+    w1 = tr.bodies[0].w0
+    r = rigid_ratios(tr)
+    for i in range(tr.nb):
+        sv[f"body[{i + 1}].w_start"] = float(r[i] * w1)
+    counts = [1] * tr.nm
+    for _ in range(max_iter):
+        tr = GearTrain(sv)
+        tau = np.array([b.tau for b in tr.bodies])
+        _a1, F, Ts, _r = rigid_loads(tr, w1, tau)
+        for k, mesh in enumerate(tr.meshes):
+            if F[k] > 0.0:
+                d = static_delta(mesh, F[k], counts[k])
+            elif F[k] < 0.0:
+                d = -mesh.g.backlash - static_delta(mesh, -F[k], counts[k])
+            else:
+                d = 0.0
+            sv[f"mesh[{k + 1}].dte_start"] = float(d)
+        for s, T in zip(tr.shafts, Ts):
+            sv[f"shaft[{s.j}].twist_start"] = float(T / s.k)
+        tr = GearTrain(sv)
+        y = tr.initial_state()
+        cfg = tr.classify(0.0, y, np.array([b.tau for b in tr.bodies]))
+        new = [max(len(ms.kf), len(ms.kb), 1) for ms in cfg.meshes]
+        if new == counts:
+            return sv
+        counts = new
+    raise RuntimeError(f"quasi_static_start: pair counts do not settle ({counts})")
+
+
+# --------------------------------------------------------------------------------------------
+# Idler phasing (spec section 7), closed form
+# --------------------------------------------------------------------------------------------
+
+def idler_switch_phase(start_values: dict, delta2: float | None = None) -> float:
+    """Phase in [0, 1) of the pair switches of mesh 2 relative to mesh 1 for an idler.
+
+    Set-up: the idler I is B of mesh 1 and A of mesh 2 (gear-train.md section 3), in steady
+    forward drive (the idler turns at a steady forward speed).  SWITCH = a forward pair entering
+    the gate at point a (the driven gear's tip reaches the line of action: the start of the
+    double-contact interval when 1 < eps < 2).  PHASE = (time from a switch of mesh 1 to the next
+    switch of mesh 2) / (mesh period 2 pi/(z_I w_I)).
+
+    Derivation from spec section 3 (mesh frames) and the pair formulas of the module docstring.
+    Let s1 = -sigma(A of mesh 1); then sigma_I = s1 (a mesh flips the sense), mesh 1's frame has
+    s_m = s1 and mesh 2's s_m = -sigma_I = -s1.  With theta_I the idler's forward angle,
+    psi_I = psi_I(0) + s1 theta_I, and dz = 2 pi/z_I:
+
+    Mesh 1 (idler = B).  chi_B = s1 (psi_I + mount_B1 - beta_1) = chiB0 + theta_I; the forward
+    root of idler tooth n is at chi_B + n dz - tB1/2, so s_B = rBb1 (alpha_w1 + pi - chi_B - n dz
+    + tB1/2).  A pair enters at a when s_B = L1 - s_a1 (s_A - delta = s_a, the B tip): this
+    depends on the idler alone, at
+        theta_I = X1 - s1 (psi_I(0) + mount_B1 - beta_1) - n dz,
+        X1 = alpha_w1 + pi + tB1/2 - (L1 - s_a1)/rBb1.
+    Mesh 2 (idler = A).  chi_A = -s1 (psi_I + mount_A2 - beta_2) = chiA0 - theta_I; the forward
+    root of idler tooth n is at chi_A - n dz - tA2/2, so s_A = rAb2 (alpha_w2 - chi_A + n dz +
+    tA2/2).  A pair enters at a when s_A - delta2 = s_a2 (gear 3's tip, which sits at s_A =
+    s_a2 + delta2 on the idler's side), at
+        theta_I = X2 - s1 (psi_I(0) + mount_A2 - beta_2) - n dz,
+        X2 = (s_a2 + delta2)/rAb2 - alpha_w2 - tA2/2.
+    Both sets of switch angles are lattices of spacing dz; psi_I(0) cancels.  At a steady idler
+    speed time is proportional to theta_I, so
+
+        phase = frac( [ X2 - X1 + s1 ((beta_2 - beta_1) - (mount_A2 - mount_B1)) ] / dz )
+
+              = frac( z_I/(2 pi) * [ s1 (beta_2 - beta_1 - mount_A2 + mount_B1)
+                                     + (L1 - s_a1)/rBb1 + (s_a2 + delta2)/rAb2
+                                     - alpha_w1 - alpha_w2 - (tB1 + tA2)/2 - pi ] ).
+
+    The terms: z (beta_2 - beta_1)/(2 pi) is Parker & Lin's same-flank phase of two meshes
+    around one gear; (tB1 + tA2)/2 (the idler's base tooth thickness angle) appears because the
+    two meshes load OPPOSITE flanks of the idler's teeth; (L1 - s_a1)/rBb1 = tan of the
+    idler's tip pressure angle (roll angle to its tip) and (s_a2 + delta2)/rAb2 - alpha_w2 the
+    roll angle at which gear 3's tip meets the idler, measured from the pitch point; pi: mesh 1
+    sees the idler from the far side of its line of centres.  delta2 (mesh 2's forward
+    penetration, default mesh[2].dte_start) shifts the phase by delta2/(rAb2 dz) = delta2/p_b2.
+    Valid for contacts_per_flank = 0 (m_c = ceil(eps): no window event) and 1 < eps < 2.
+    """
+    tr = GearTrain(start_values)
+    if tr.nm < 2:
+        raise ValueError("idler phase: needs meshes 1 and 2")
+    m1, m2 = tr.meshes[0], tr.meshes[1]
+    if m1.B != m2.A:
+        raise ValueError("idler phase: the idler must be B of mesh 1 and A of mesh 2")
+    g1, g2 = m1.g, m2.g
+    z = g1.zB
+    if g2.zA != z:
+        raise ValueError(f"idler phase: the idler has {g1.zB} teeth in mesh 1, {g2.zA} in mesh 2")
+    if delta2 is None:
+        delta2 = m2.dte0
+    s1 = -tr.sigma[m1.A]
+    X1 = g1.alpha_w + math.pi + g1.tB / 2 - (g1.L - g1.s_a) / g1.rBb
+    X2 = (g2.s_a + delta2) / g2.rAb - g2.alpha_w - g2.tA / 2
+    arg = X2 - X1 + s1 * ((m2.beta - m1.beta) - (m2.mount_A - m1.mount_B))
+    ph = arg / (2.0 * math.pi / z)
+    return ph - math.floor(ph)
+
+
+# --------------------------------------------------------------------------------------------
+# Scenes and statistics
+# --------------------------------------------------------------------------------------------
+
+TRAIN_SCENES_DIR = os.path.join(G.SCENES_DIR, "train")
+REF_RTOL = G.REF_RTOL
+
+
+def load_scene(name_or_path):
+    path = name_or_path
+    if not path.endswith(".toml"):
+        path = os.path.join(TRAIN_SCENES_DIR, name_or_path + ".toml")
+    with open(path, "rb") as f:
+        scene = tomllib.load(f)
+    scene["name"] = os.path.basename(path)[:-5]
+    scene["path"] = path
+    return scene
+
+
+def scene_model(scene):
+    tr = GearTrain(scene.get("start_values", {}))
+    taus = [b.tau for b in tr.bodies]
+    if "input_file" in scene:
+        inputs = TrainInputs.from_csv(os.path.join(os.path.dirname(scene["path"]),
+                                                   scene["input_file"]), taus)
+    else:
+        inputs = TrainInputs.constant(taus)
+    return tr, inputs
+
+
+def run_scene(scene, rtol=None, method="DOP853", perturb_rel=0.0):
+    """perturb_rel: body 1's start speed perturbed by perturb_rel * max(|w_start|, 1)."""
+    if rtol is None:
+        rtol = float(scene.get("reference_rtol", REF_RTOL))
+    tr, inputs = scene_model(scene)
+    dw = perturb_rel * max(abs(tr.bodies[0].w0), 1.0)
+    return tr.simulate(scene["stop_time"], scene["output_interval"], inputs, rtol=rtol,
+                       method=method, perturb_w1=dw)
+
+
+def statistics(names, table, output_interval, train: GearTrain):
+    """Statistics over the output-grid rows (as gearmesh_ref.statistics, per element):
+
+    body[i].mean_w                       mean speed [rad/s]
+    mesh[m].mean_ratio                   mean(w_A)/mean(w_B)
+    mesh[m].rms_dte, max_dte, min_dte    of dte on the grid [m]
+    mesh[m].impacts_per_mesh_cycle       rising edges of (n_fwd > 0) and of (n_bwd > 0) between
+                                         consecutive grid rows, per mesh cycle
+                                         z_A |theta_A(end) - theta_A(0)|/(2 pi)
+    mesh[m].flank_switches_per_mesh_cycle  changes of the flank last seen in contact, per cycle
+    mesh[m].contact_fraction             share of grid rows with a pair in contact (either flank)
+    mesh[m].bwd_contact_fraction         share of grid rows with backward contact (the rattle
+                                         side when the drive is forward)
+    """
+    r = G.grid_rows(names, table, output_interval)
+    col = lambda nm: r[:, names.index(nm)]
+    out = {}
+    for i in range(1, train.nb + 1):
+        out[f"body[{i}].mean_w"] = float(np.mean(col(f"body[{i}].w")))
+    for mesh in train.meshes:
+        m = mesh.m
+        pre = f"mesh[{m}]."
+        dte = col(pre + "dte")
+        nf, nb_ = col(pre + "n_fwd") > 0, col(pre + "n_bwd") > 0
+        rises = int(np.sum(nf[1:] & ~nf[:-1]) + np.sum(nb_[1:] & ~nb_[:-1]))
+        last, switches = 0, 0
+        for f, b in zip(nf, nb_):
+            sd = 1 if f else (-1 if b else 0)
+            if sd:
+                if last and sd != last:
+                    switches += 1
+                last = sd
+        thA = col(f"body[{mesh.A + 1}].theta")
+        cycles = mesh.g.zA * abs(thA[-1] - thA[0]) / (2 * math.pi)
+        per = (lambda k: k / cycles) if cycles > 0 else (lambda k: float("nan"))
+        out[pre + "mean_ratio"] = float(np.mean(col(f"body[{mesh.A + 1}].w"))
+                                        / np.mean(col(f"body[{mesh.B + 1}].w")))
+        out[pre + "rms_dte"] = float(np.sqrt(np.mean(dte ** 2)))
+        out[pre + "max_dte"] = float(np.max(dte))
+        out[pre + "min_dte"] = float(np.min(dte))
+        out[pre + "impacts_per_mesh_cycle"] = float(per(rises))
+        out[pre + "flank_switches_per_mesh_cycle"] = float(per(switches))
+        out[pre + "contact_fraction"] = float(np.mean(nf | nb_))
+        out[pre + "bwd_contact_fraction"] = float(np.mean(nb_))
+    return out
+
+
+def mesh_cycles(names, table, output_interval, train, m):
+    r = G.grid_rows(names, table, output_interval)
+    mesh = train.meshes[m - 1]
+    thA = r[:, names.index(f"body[{mesh.A + 1}].theta")]
+    return mesh.g.zA * abs(thA[-1] - thA[0]) / (2 * math.pi)
