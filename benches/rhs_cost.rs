@@ -1,24 +1,24 @@
 //! The right-hand side of contact model 3 against contact model 1's (issue 9, point 1: at most
 //! 1.2 times), on the standard pair (geometry 2, 22/33, module 10 mm) at states along one mesh
-//! cycle of a loaded, damped run with friction: `Mesh::rhs` alone, both models in the same
+//! cycle of a loaded, damped run with friction: `PaperRig::rhs` alone, both models in the same
 //! process, interleaved, medians of repeated timings. Since Johnson's law reads the W_-1 table
 //! too (issue 12), the ratio reads about 1.65: see the README, "A real gear's mesh".
 //!
-//! Also `Mesh::rhs` of the paper rig's scenes (paper-m2 and damped: Johnson, no friction) over one
+//! Also `PaperRig::rhs` of the paper rig's scenes (paper-m2 and damped: Johnson, no friction) over one
 //! base pitch, the cost per evaluation behind the floors in docs/integrators.md.
 //!
 //! Run: `cargo bench --bench rhs_cost`.
 
-use spur_gear_mesh::model::mesh::{DTE, THETA_A};
-use spur_gear_mesh::model::{Mesh, State, NY};
+use spur_gear_mesh::model::paper_rig::{DTE, THETA_A};
+use spur_gear_mesh::model::{PaperRig, State, NY};
 use spur_gear_mesh::variables::{Inputs, Params};
 use std::hint::black_box;
 use std::time::Instant;
 
-/// Mesh and states at 64 positions over the double-contact zone (f1 from s_a, f2 a pitch ahead,
+/// PaperRig and states at 64 positions over the double-contact zone (f1 from s_a, f2 a pitch ahead,
 /// until f2 reaches s_b), at a penetration of the load's order: two pairs carry, the case where
 /// contact model 3 does twice the per-pair work of Johnson's one evaluation per flank.
-fn setup(contact_model: i32) -> (Mesh, Vec<State>) {
+fn setup(contact_model: i32) -> (PaperRig, Vec<State>) {
     let p = Params {
         geometry: 2,
         contact_model,
@@ -37,7 +37,7 @@ fn setup(contact_model: i32) -> (Mesh, Vec<State>) {
         dte_start: delta,
         ..p
     };
-    let (mesh, y0) = Mesh::new(&p, &i).unwrap();
+    let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
     let g = &mesh.geo;
     let states = (0..64)
         .map(|k| {
@@ -52,7 +52,7 @@ fn setup(contact_model: i32) -> (Mesh, Vec<State>) {
 
 /// The paper rig as scenes/paper-m2.toml and damped.toml set it, at 64 positions over one base
 /// pitch (single and double contact in the scenes' proportion) at the quasi-static penetration.
-fn paper_setup(chi: f64) -> (Mesh, Vec<State>) {
+fn paper_setup(chi: f64) -> (PaperRig, Vec<State>) {
     let delta = 5.592370531367129e-7;
     let p = Params {
         c_load: 2.0,
@@ -67,7 +67,7 @@ fn paper_setup(chi: f64) -> (Mesh, Vec<State>) {
         tau_A: 100.0,
         ..Inputs::default()
     };
-    let (mesh, y0) = Mesh::new(&p, &i).unwrap();
+    let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
     let g = &mesh.geo;
     let states = (0..64)
         .map(|k| {
@@ -80,7 +80,7 @@ fn paper_setup(chi: f64) -> (Mesh, Vec<State>) {
     (mesh, states)
 }
 
-fn time(mesh: &Mesh, states: &[State], reps: usize) -> f64 {
+fn time(mesh: &PaperRig, states: &[State], reps: usize) -> f64 {
     let mut dy = [0.0; NY];
     let start = Instant::now();
     for _ in 0..reps {
@@ -108,7 +108,7 @@ fn main() {
         t3.push(b);
         ratio.push(b / a);
     }
-    println!("Mesh::rhs, standard pair 22/33, module 10 mm, damped, friction, 41 interleaved repetitions");
+    println!("PaperRig::rhs, standard pair 22/33, module 10 mm, damped, friction, 41 interleaved repetitions");
     println!(
         "contact model 1: {:.1} ns, contact model 3: {:.1} ns, model 3 / model 1: {:.2} (median of per-pair ratios; min {:.2}, max {:.2})",
         median(t1),
@@ -125,7 +125,7 @@ fn main() {
         td.push(time(&md, &sd, 2000));
     }
     println!(
-        "Mesh::rhs, the paper rig over one base pitch, 41 repetitions: undamped (paper-m2) {:.1} ns, damped (chi = 10 s/m) {:.1} ns",
+        "PaperRig::rhs, the paper rig over one base pitch, 41 repetitions: undamped (paper-m2) {:.1} ns, damped (chi = 10 s/m) {:.1} ns",
         median(tu),
         median(td)
     );

@@ -9,7 +9,7 @@
 //!   from `--solver` / `--rtol`; `--api rust` steps `Simulation` directly, `--api c` goes through
 //!   the exported C functions (fmi2Instantiate ... fmi2DoStep, fmi2GetReal) like a master would.
 //! - `--integrator rk4 --substeps N` or `--integrator euler --substeps N`: a naive peer of the
-//!   kind simple co-simulation FMUs use, on the same model (`Mesh::rhs`): N fixed substeps per
+//!   kind simple co-simulation FMUs use, on the same model (`PaperRig::rhs`): N fixed substeps per
 //!   communication step and no event location; the contact modes are updated from the state at
 //!   the start of every substep (every event function found past its zero is handled there), so
 //!   the right-hand side is non-smooth inside a substep.
@@ -30,7 +30,7 @@ use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
 use spur_gear_mesh::fmi::outputs::{outputs, write};
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, Status};
-use spur_gear_mesh::model::{Loads, Mesh, State, NY};
+use spur_gear_mesh::model::{Loads, PaperRig, State, NY};
 use spur_gear_mesh::variables::{Inputs, Outputs, Params, Var, VarType, GUID, VARIABLES};
 use std::ffi::CString;
 use std::io::Write;
@@ -264,7 +264,7 @@ fn outputs_row(t: f64, o: &spur_gear_mesh::variables::Outputs) -> Row {
     r
 }
 
-fn loads_of(mesh: &Mesh, inputs: &Inputs) -> Loads {
+fn loads_of(mesh: &PaperRig, inputs: &Inputs) -> Loads {
     Loads {
         tau_a: inputs.tau_A,
         tau_b: inputs.tau_B,
@@ -292,7 +292,7 @@ fn run_rust(c: &Config, rows: &mut Vec<Row>) -> RunResult {
     for k in 0..ts.len() - 1 {
         if let Some(tab) = &c.table {
             tab.apply(ts[k], &mut inputs);
-            sim.set_loads(loads_of(&sim.mesh, &inputs), None);
+            sim.set_loads(loads_of(&sim.rig, &inputs), None);
         }
         let log_events = c.log_events;
         let advanced = sim.advance(ts[k + 1], &mut |t, r| {
@@ -469,7 +469,7 @@ fn run_c(c: &Config, rows: &mut Vec<Row>) -> RunResult {
 
 /// The naive peer: fixed substeps, no event location, modes from the state at each substep start.
 struct Naive {
-    mesh: Mesh,
+    rig: PaperRig,
     y: State,
     scheme: Integrator,
     counters: Counters,
@@ -478,7 +478,7 @@ struct Naive {
 impl Naive {
     /// The outputs at the state, with the energy account only if asked (as the FMU).
     fn outputs(&self, energy: bool) -> Result<Outputs, String> {
-        let r = self.mesh.readout(&self.y).map_err(|e| e.to_string())?;
+        let r = self.rig.readout(&self.y).map_err(|e| e.to_string())?;
         let mut o = Outputs::default();
         spur_gear_mesh::fmi::outputs::assemble(
             &r,
@@ -487,7 +487,7 @@ impl Naive {
             &mut o,
         );
         if energy {
-            let e = self.mesh.energy(&self.y).map_err(|e| e.to_string())?;
+            let e = self.rig.energy(&self.y).map_err(|e| e.to_string())?;
             (o.E_kin, o.E_el, o.energy_residual) = (e.e_kin, e.e_el, e.residual);
         }
         Ok(o)
@@ -496,7 +496,7 @@ impl Naive {
     fn f(&mut self, y: &State) -> Result<State, String> {
         let mut dy = [0.0; NY];
         self.counters.rhs += 1;
-        self.mesh.rhs(y, &mut dy).map_err(|e| e.to_string())?;
+        self.rig.rhs(y, &mut dy).map_err(|e| e.to_string())?;
         Ok(dy)
     }
 
@@ -505,10 +505,10 @@ impl Naive {
         use spur_gear_mesh::model::contact::N_EVENTS;
         let mut m = [0.0; N_EVENTS];
         for _ in 0..4 * N_EVENTS {
-            self.mesh.event_margins(&self.y, &mut m);
+            self.rig.event_margins(&self.y, &mut m);
             match m.iter().position(|&x| x < 0.0) {
                 Some(i) => {
-                    self.mesh
+                    self.rig
                         .handle_event(i, &mut self.y)
                         .map_err(|e| e.to_string())?;
                     self.counters.events += 1;
@@ -546,7 +546,7 @@ impl Naive {
             if !self.y.iter().all(|x| x.is_finite()) {
                 return Err("non-finite state".into());
             }
-            self.mesh.check_state(&self.y).map_err(|e| e.to_string())?;
+            self.rig.check_state(&self.y).map_err(|e| e.to_string())?;
         }
         Ok(())
     }
@@ -559,9 +559,9 @@ fn run_naive(c: &Config, rows: &mut Vec<Row>) -> RunResult {
         tab.apply(0.0, &mut inputs);
     }
     let start = Clock::start();
-    let (mesh, y) = Mesh::new(&c.params, &inputs).expect("scene");
+    let (rig, y) = PaperRig::new(&c.params, &inputs).expect("scene");
     let mut nv = Naive {
-        mesh,
+        rig,
         y,
         scheme: c.integrator,
         counters: Counters::default(),
@@ -571,8 +571,8 @@ fn run_naive(c: &Config, rows: &mut Vec<Row>) -> RunResult {
     for k in 0..ts.len() - 1 {
         if let Some(tab) = &c.table {
             tab.apply(ts[k], &mut inputs);
-            let l = loads_of(&nv.mesh, &inputs);
-            nv.mesh.set_loads(l, &mut nv.y);
+            let l = loads_of(&nv.rig, &inputs);
+            nv.rig.set_loads(l, &mut nv.y);
         }
         let h = (ts[k + 1] - ts[k]) / c.substeps as f64;
         if let Err(e) = nv.advance(h, c.substeps) {

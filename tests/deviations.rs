@@ -8,7 +8,7 @@ use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::contact::{self, Flank};
 use spur_gear_mesh::model::geometry::Geometry;
-use spur_gear_mesh::model::Mesh;
+use spur_gear_mesh::model::PaperRig;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn pitch(z: usize, teeth: &[(usize, f64)]) -> String {
@@ -40,11 +40,11 @@ fn each_pair_carries_at_its_own_penetration() {
         ..Params::default()
     };
     let g = Geometry::new(&p).unwrap();
-    let (mesh, y) = Mesh::new(&p, &Inputs::default()).unwrap();
+    let (mesh, y) = PaperRig::new(&p, &Inputs::default()).unwrap();
     let o = mesh.readout(&y).unwrap();
     let own = [dte + 1e-7 - 3e-8, dte - 4e-8 - 2e-8];
     for (k, delta) in own.into_iter().enumerate() {
-        let back = static_delta(o.pair_force[k] / p.width, &g);
+        let back = static_delta(o.mesh.pair_force[k] / p.width, &g);
         // The fixed point converges to rounding; d ln N / d ln delta ~ 1.07, so the force's
         // rounding (1e-16 relative) maps to ~1e-16 relative in delta; 1e-12 is far above it.
         assert!(
@@ -66,7 +66,7 @@ fn each_pair_carries_at_its_own_penetration() {
         pitch_errors_B: pitch(33, &[(1, 3e-8), (32, 2e-8)]),
         ..p
     };
-    let (mesh, y) = Mesh::new(&p, &Inputs::default()).unwrap();
+    let (mesh, y) = PaperRig::new(&p, &Inputs::default()).unwrap();
     let o = mesh.readout(&y).unwrap();
     let below = mesh.sigma[3] < mesh.sigma[2];
     let delta = if below {
@@ -74,8 +74,8 @@ fn each_pair_carries_at_its_own_penetration() {
     } else {
         dte - 1e-7 + 2e-8
     };
-    assert!(o.pair_force[3] > 0.0, "b2 carries");
-    let back = static_delta(o.pair_force[3] / p.width, &g);
+    assert!(o.mesh.pair_force[3] > 0.0, "b2 carries");
+    let back = static_delta(o.mesh.pair_force[3] / p.width, &g);
     assert!(
         (back - delta).abs() <= 1e-12 * delta,
         "b2: {back} vs {delta}"

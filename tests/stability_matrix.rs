@@ -217,7 +217,7 @@ fn driver_run(case: &Case, solver: i32, rel_tol: f64) -> Option<Vec<[f64; 3]>> {
     for k in 0..n {
         let t = k as f64 * case.comm_step;
         i.tau_A = (case.tau_a)(t) * case.tau_scale;
-        let mut loads = sim.mesh.loads;
+        let mut loads = sim.rig.loads;
         loads.tau_a = i.tau_A;
         sim.set_loads(loads, None);
         sim.advance(t + case.comm_step, &mut |_, _| {}).ok()?;

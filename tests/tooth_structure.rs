@@ -155,7 +155,7 @@ fn the_tooth_structure_needs_the_standard_geometry() {
 /// initialization says so once, naming the wheel.
 #[test]
 fn outside_sainsots_domain_is_a_warning() {
-    use spur_gear_mesh::model::Mesh;
+    use spur_gear_mesh::model::PaperRig;
     let p = Params {
         zA: 60,
         zB: 100,
@@ -164,7 +164,7 @@ fn outside_sainsots_domain_is_a_warning() {
         xB: -0.5,
         ..standard(3)
     };
-    let (mesh, _) = Mesh::new(&p, &drive()).unwrap();
+    let (mesh, _) = PaperRig::new(&p, &drive()).unwrap();
     let w: Vec<&String> = mesh
         .geo
         .warnings
@@ -176,7 +176,7 @@ fn outside_sainsots_domain_is_a_warning() {
         "{:?}",
         mesh.geo.warnings
     );
-    let (quiet, _) = Mesh::new(&standard(3), &drive()).unwrap();
+    let (quiet, _) = PaperRig::new(&standard(3), &drive()).unwrap();
     assert!(quiet.geo.warnings.iter().all(|w| !w.contains("u_f")));
 }
 

@@ -3,6 +3,7 @@
 the base scenes must cost what they cost before, within noise).
 
     python3 tools/cost_vs_rev.py REV [--rounds 15] [--scenes damped,paper-m2,...]
+        [--old-binary PATH]     (REV's run_scene already built: skips the worktree build)
 
 Builds REV's examples/run_scene in a git worktree (target/cost-vs-rev/, its own target dir), then
 runs both binaries on every scene through the C API, alternating old and new in each round so
@@ -46,11 +47,12 @@ def main() -> int:
     ap.add_argument("rev")
     ap.add_argument("--rounds", type=int, default=15)
     ap.add_argument("--scenes", default="")
+    ap.add_argument("--old-binary", default="")
     a = ap.parse_args()
     subprocess.run(["cargo", "build", "-q", "--release", "--example", "run_scene"], cwd=ROOT,
                    check=True)
     new = ROOT / "target" / "release" / "examples" / "run_scene"
-    old = build(a.rev)
+    old = Path(a.old_binary) if a.old_binary else build(a.rev)
     names = [s for s in a.scenes.split(",") if s] or sorted(
         p.stem for p in (ROOT / "scenes").glob("*.toml")
         if subprocess.run([str(old), str(p), "--reps", "1", "--stop-time", "1e-4"], cwd=ROOT,

@@ -882,8 +882,8 @@ def report(info, refs, all_results, targets, args):
       "interval; inputs are interpolated from the scene's CSV at each communication point and "
       "held over the step (after a step in the table, the new value).")
     A("- Naive fixed-step peer (RK4 xN, Euler xN): N substeps per communication step on the same "
-      "right-hand side (`Mesh::rhs`), no event location: before every substep every event "
-      "function found past its zero is handled at the current state (`Mesh::handle_event`), so "
+      "right-hand side (`PaperRig::rhs`), no event location: before every substep every event "
+      "function found past its zero is handled at the current state (`PaperRig::handle_event`), so "
       "contact onsets, separations and pair switches are detected up to a substep late and the "
       "right-hand side jumps inside substeps.")
     A(f"- SciPy peer: `gearmesh_ref.run_scene(scene, rtol, method)` (solve_ivp DOP853, Radau for "

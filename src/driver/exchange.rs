@@ -1,7 +1,7 @@
 //! Model Exchange: the master integrates and locates the events, and the mesh is driven from
 //! outside. `Exchange` holds what the master sets (time and state), evaluates the right-hand
 //! side and the event functions there, and handles the events the master found, as the driver
-//! does inside a Co-Simulation step (`Mesh::handle_event`).
+//! does inside a Co-Simulation step (`PaperRig::handle_event`).
 //!
 //! The state vector is the integrator's without its time component (`ME_STATE`). The run's
 //! statistics (dte_mean, F_max...) are accumulated over the points where the master completes
@@ -10,10 +10,9 @@
 use super::simulation::Simulation;
 use super::Stats;
 use crate::model::contact::{EventFn, N_EVENTS};
-use crate::model::mesh::{
-    EventReport, LawOutOfRange, DDTE, DTE, NY, THETA_A, V_S, W_A, W_EXT, W_LOSS, X_S,
-};
-use crate::model::{Loads, Mesh, State};
+use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::paper_rig::{DDTE, DTE, NY, THETA_A, V_S, W_A, W_EXT, W_LOSS, X_S};
+use crate::model::{Loads, PaperRig, State};
 use serde::{Deserialize, Serialize};
 
 /// The components of the integrator's state that are Model Exchange's states, in order.
@@ -24,7 +23,7 @@ const MAX_EVENTS_PER_INSTANT: usize = 64;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Exchange {
-    pub mesh: Mesh,
+    pub rig: PaperRig,
     pub t: f64,
     pub y: State,
     /// The last accepted point (completed step or event): the statistics are added up to it.
@@ -40,7 +39,7 @@ impl Exchange {
     pub fn new(sim: Simulation) -> Exchange {
         let (t, y) = (sim.time(), sim.driver.state());
         Exchange {
-            mesh: sim.mesh,
+            rig: sim.rig,
             t,
             y,
             last: (t, y),
@@ -68,7 +67,7 @@ impl Exchange {
     /// The state's time derivative at the current point.
     pub fn rates(&self) -> Result<State, LawOutOfRange> {
         let mut dy = [0.0; NY];
-        self.mesh.rhs(&self.y, &mut dy)?;
+        self.rig.rhs(&self.y, &mut dy)?;
         Ok(dy)
     }
 
@@ -76,11 +75,11 @@ impl Exchange {
     /// under the current loads and its vibration speed; 1 rad and 1 rad/s), 1 J for the work
     /// accounts.
     pub fn nominals(&self, n: &mut [f64]) {
-        Exchange::scales(&self.mesh, n)
+        Exchange::scales(&self.rig, n)
     }
 
     /// `nominals` of a mesh.
-    pub fn scales(mesh: &Mesh, n: &mut [f64]) {
+    pub fn scales(mesh: &PaperRig, n: &mut [f64]) {
         let s = mesh.abs_tol(1.0);
         let scale = [s[0], s[1], s[2], s[3], 1.0, 1.0, s[4], s[5]];
         n.copy_from_slice(&scale[..n.len()]);
@@ -90,11 +89,11 @@ impl Exchange {
     /// lock that the new loads would make pull is released at once, which may move the state
     /// (two-sided contact); then the master is asked for an event (`take_jump`).
     pub fn set_loads(&mut self, loads: Loads) {
-        if loads == self.mesh.loads {
+        if loads == self.rig.loads {
             return;
         }
         let before = self.y;
-        self.mesh.set_loads(loads, &mut self.y);
+        self.rig.set_loads(loads, &mut self.y);
         self.jumped |= self.y != before;
         self.nominals_changed = true;
     }
@@ -117,7 +116,7 @@ impl Exchange {
     /// The master accepted its step up to the current point: the statistics take the piece
     /// since the last one, and a state beyond the model's limits is an error.
     pub fn completed_step(&mut self) -> Result<(), LawOutOfRange> {
-        self.mesh.check_state(&self.y)?;
+        self.rig.check_state(&self.y)?;
         self.stats.steps += 1;
         self.observe_to_now()
     }
@@ -125,13 +124,13 @@ impl Exchange {
     fn observe_to_now(&mut self) -> Result<(), LawOutOfRange> {
         let (t0, y0) = self.last;
         let (t1, y1) = (self.t, self.y);
-        if let Some(mut s) = self.mesh.stats.take() {
+        if let Some(mut s) = self.rig.stats.clone() {
             let line = |t: f64| -> State {
                 let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
                 std::array::from_fn(|i| y0[i] + w * (y1[i] - y0[i]))
             };
-            let r = s.add(&self.mesh, t0, t1, &line);
-            self.mesh.stats = Some(s);
+            let r = self.rig.add_statistics(&mut s, t0, t1, &line);
+            self.rig.stats = Some(s);
             r?;
         }
         self.last = (t1, y1);
@@ -155,21 +154,21 @@ impl Exchange {
         let (mut m, mut rate) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
         for _ in 0..MAX_EVENTS_PER_INSTANT {
             let dy = self.rates().map_err(EventError::Law)?;
-            self.mesh
+            self.rig
                 .event_margins_and_rates(&self.y, &dy, &mut m, &mut rate);
-            let crossed = (0..self.mesh.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
+            let crossed = (0..self.rig.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
             let Some(i) = crossed else {
                 self.last = (self.t, self.y);
                 return Ok(self.y != before);
             };
             let report = self
-                .mesh
+                .rig
                 .handle_event(i, &mut self.y)
                 .map_err(EventError::Law)?;
             self.stats.events += 1;
             log(&report);
         }
-        let last = (0..self.mesh.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
+        let last = (0..self.rig.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
         Err(EventError::NoSettle {
             last: format!("{:?}", last.map(EventFn::from_index)),
         })

@@ -3,9 +3,10 @@
 
 use super::{Driver, DriverError, EventOutcome, Method, System, Tolerance};
 use crate::model::contact::N_EVENTS;
-use crate::model::mesh::{EventReport, LawOutOfRange, Ramp, CONTROLLED};
+use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::paper_rig::{Ramp, CONTROLLED};
 use crate::model::statistics::Statistics;
-use crate::model::{Loads, Mesh, ModelError, State};
+use crate::model::{Loads, ModelError, PaperRig, State};
 use crate::variables::{Inputs, Params};
 
 impl EventOutcome for EventReport {
@@ -14,16 +15,16 @@ impl EventOutcome for EventReport {
     }
 }
 
-impl System for Mesh {
+impl System for PaperRig {
     type State = State;
     type Margins = [f64; N_EVENTS];
     type Error = LawOutOfRange;
     type Report = EventReport;
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
-        Mesh::rhs(self, y, dy)
+        PaperRig::rhs(self, y, dy)
     }
     fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
-        Mesh::event_margins(self, y, out)
+        PaperRig::event_margins(self, y, out)
     }
     fn event_margins_and_rates(
         &self,
@@ -32,19 +33,19 @@ impl System for Mesh {
         margins: &mut [f64; N_EVENTS],
         rates: &mut [f64; N_EVENTS],
     ) {
-        Mesh::event_margins_and_rates(self, y, dy, margins, rates)
+        PaperRig::event_margins_and_rates(self, y, dy, margins, rates)
     }
     fn margin(&self, i: usize, y: &State) -> f64 {
-        Mesh::margin(self, crate::model::contact::EventFn::from_index(i), y)
+        PaperRig::margin(self, crate::model::contact::EventFn::from_index(i), y)
     }
     fn n_events(&self) -> usize {
         self.n_event_fns()
     }
     fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
-        Mesh::check_state(self, y)
+        PaperRig::check_state(self, y)
     }
     fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange> {
-        Mesh::handle_event(self, i, y)
+        PaperRig::handle_event(self, i, y)
     }
     /// At most a base pitch of contact travel: the objects' events recur every pitch, so a
     /// longer step is cut back at an event anyway, and the driver's cubic check finds a gate or
@@ -55,7 +56,7 @@ impl System for Mesh {
     /// near an equilibrium the error estimate sees nothing and would let the step grow until
     /// rounding errors are amplified.
     fn max_step(&self, y: &State, stability: Option<f64>) -> f64 {
-        let speed = self.geo.r_ab * y[crate::model::mesh::W_A].abs();
+        let speed = self.geo.r_ab * y[crate::model::paper_rig::W_A].abs();
         let pitches = match self.law {
             crate::model::ContactModel::Compliant(_) => 0.25,
             crate::model::ContactModel::Rigid { .. } => 1.0,
@@ -74,28 +75,22 @@ impl System for Mesh {
         travel
     }
     fn dim(&self) -> usize {
-        Mesh::dim(self)
+        PaperRig::dim(self)
     }
     fn observe(&mut self, t0: f64, t1: f64, y: &dyn Fn(f64) -> State) -> Result<(), LawOutOfRange> {
-        if self.stats.is_none() {
-            return Ok(());
-        }
-        let mut s = self.stats.take().expect("checked");
-        let r = s.add(self, t0, t1, y);
-        self.stats = Some(s);
-        r
+        PaperRig::observe(self, t0, t1, y)
     }
 }
 
 #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Simulation {
-    pub mesh: Mesh,
-    pub driver: Driver<Mesh>,
+    pub rig: PaperRig,
+    pub driver: Driver<PaperRig>,
 }
 
 /// The driver's tolerances for the mesh at rel_tol: the mesh's absolute tolerances of its
 /// controlled components, 0 (no control) for the others.
-pub fn tolerance(mesh: &Mesh, rtol: f64) -> Tolerance<State> {
+pub fn tolerance(mesh: &PaperRig, rtol: f64) -> Tolerance<State> {
     let abs = mesh.abs_tol(rtol);
     let mut atol = [0.0; crate::model::NY];
     for (j, &i) in CONTROLLED[..mesh.n_controlled()].iter().enumerate() {
@@ -110,11 +105,11 @@ impl Clone for Simulation {
     fn clone(&self) -> Self {
         let d = &self.driver;
         let restart_point = matches!(d.method, Method::Bdf(_)) && !d.needs_restart;
-        if restart_point && self.mesh.stats.is_some() && d.t > d.observed {
+        if restart_point && self.rig.stats.is_some() && d.t > d.observed {
             return self.clone_with_statistics_to_now();
         }
         Simulation {
-            mesh: self.mesh.clone(),
+            rig: self.rig.clone(),
             driver: self.driver.clone(),
         }
     }
@@ -123,11 +118,11 @@ impl Clone for Simulation {
 impl Simulation {
     #[cold]
     fn clone_with_statistics_to_now(&self) -> Simulation {
-        let mut mesh = self.mesh.clone();
-        mesh.stats = self.statistics();
+        let mut rig = self.rig.clone();
+        rig.stats = self.statistics();
         let mut driver = self.driver.clone();
         driver.observed = driver.t;
-        Simulation { mesh, driver }
+        Simulation { rig, driver }
     }
 }
 
@@ -138,11 +133,11 @@ impl Simulation {
         t0: f64,
         rel_tol: f64,
     ) -> Result<Simulation, ModelError> {
-        let (mesh, mut y0) = Mesh::new(p, inputs)?;
-        y0[crate::model::mesh::TIME] = t0;
-        let tol = tolerance(&mesh, rel_tol);
+        let (rig, mut y0) = PaperRig::new(p, inputs)?;
+        y0[crate::model::paper_rig::TIME] = t0;
+        let tol = tolerance(&rig, rel_tol);
         let driver = Driver::new(Method::from_solver(p.solver), tol, t0, y0);
-        Ok(Simulation { mesh, driver })
+        Ok(Simulation { rig, driver })
     }
 
     pub fn time(&self) -> f64 {
@@ -152,17 +147,17 @@ impl Simulation {
     /// New inputs or tunable parameters, and the inputs' interpolation from here on (`Ramp`);
     /// a change restarts the integration at the current time.
     pub fn set_loads(&mut self, loads: Loads, ramp: Option<Ramp>) {
-        if loads != self.mesh.loads || ramp != self.mesh.ramp {
+        if loads != self.rig.loads || ramp != self.rig.ramp {
             self.observe_to_now();
             self.driver.invalidate();
             let mut y = self.driver.state();
             // The time component is integrated only while a ramp is on: set it here.
-            y[crate::model::mesh::TIME] = self.driver.t;
-            self.mesh.ramp = ramp;
-            self.mesh.set_loads(loads, &mut y);
+            y[crate::model::paper_rig::TIME] = self.driver.t;
+            self.rig.ramp = ramp;
+            self.rig.set_loads(loads, &mut y);
             // Releasing a rigid lock may move the state onto the other flank (two-sided contact).
             self.driver.y_start = y;
-            self.driver.tol = tolerance(&self.mesh, self.driver.tol.rtol);
+            self.driver.tol = tolerance(&self.rig, self.driver.tol.rtol);
         }
     }
 
@@ -178,8 +173,8 @@ impl Simulation {
     /// Commits the statistics up to the current time before a restart drops the dense output.
     fn observe_to_now(&mut self) {
         let t = self.driver.t;
-        if self.driver.observe_to(&mut self.mesh, t).is_err() {
-            if let Some(s) = self.mesh.stats.as_mut() {
+        if self.driver.observe_to(&mut self.rig, t).is_err() {
+            if let Some(s) = self.rig.stats.as_mut() {
                 s.poison();
             }
         }
@@ -188,11 +183,15 @@ impl Simulation {
     /// The statistics up to the current time: those committed at the last step or event, and
     /// the piece of the current step since then.
     pub fn statistics(&self) -> Option<Statistics> {
-        let mut s = self.mesh.stats.clone()?;
+        let mut s = self.rig.stats.clone()?;
         let d = &self.driver;
         if !d.needs_restart && d.t > d.observed {
             let y = |x| d.method.interpolate(x);
-            if s.add(&self.mesh, d.observed, d.t, &y).is_err() {
+            if self
+                .rig
+                .add_statistics(&mut s, d.observed, d.t, &y)
+                .is_err()
+            {
                 s.poison();
             }
         }
@@ -210,6 +209,6 @@ impl Simulation {
         t_end: f64,
         log: &mut dyn FnMut(f64, &EventReport),
     ) -> Result<(), DriverError<LawOutOfRange>> {
-        self.driver.advance(&mut self.mesh, t_end, log)
+        self.driver.advance(&mut self.rig, t_end, log)
     }
 }

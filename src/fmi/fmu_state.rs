@@ -23,7 +23,7 @@ pub const FORMAT_VERSION: u32 = 7;
 /// must not bring NaN, infinity or an invalid tolerance into the instance.
 fn check_values(s: &Simulation) -> Result<(), String> {
     let d = &s.driver;
-    let m = &s.mesh;
+    let m = &s.rig;
     let (t, t_prev, h, y) = match &d.method {
         Method::Dopri5(x) => (x.t, x.t_prev, x.h, x.y),
         Method::Bdf(x) => (x.t, x.t_prev, x.h, x.y),
@@ -92,13 +92,10 @@ fn check_values(s: &Simulation) -> Result<(), String> {
 fn rebuild(sim: &mut Simulation, s: &Snapshot) -> Result<(), String> {
     let fresh = Simulation::new(&s.params, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
-    if sim.mesh.stats.is_some() != fresh.mesh.stats.is_some() {
+    if sim.rig.stats.is_some() != fresh.rig.stats.is_some() {
         return Err("the statistics in the state do not match the parameter statistics".into());
     }
-    sim.mesh.cfg = fresh.mesh.cfg;
-    sim.mesh.describe_events = fresh.mesh.describe_events;
-    let sigma = sim.mesh.sigma;
-    sim.mesh.set_sigma(sigma);
+    sim.rig.restore_config(&fresh.rig);
     let d = &sim.driver;
     if d.pending.is_some_and(|p| p.index >= N_EVENTS) {
         return Err(format!("event index {:?} out of range", d.pending));
@@ -125,7 +122,7 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     if tolerance.is_some_and(|t| !(1e-14..=0.1).contains(&t)) {
         return Err(format!("invalid experiment tolerance {tolerance:?}"));
     }
-    crate::model::geometry::validate(&s.params)
+    crate::model::params::validate(&s.params)
         .map_err(|e| format!("parameters in the state: {e}"))?;
     for info in VARIABLES.iter().filter(|v| v.causality == Causality::Input) {
         if let Some(bad) = s.inputs.get_real(info.var).filter(|x| !x.is_finite()) {
@@ -165,15 +162,15 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
 fn rebuild_exchange(ex: &mut Exchange, s: &Snapshot) -> Result<(), String> {
     let fresh = Simulation::new(&s.params, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
-    if ex.mesh.stats.is_some() != fresh.mesh.stats.is_some() {
+    if ex.rig.stats.is_some() != fresh.rig.stats.is_some() {
         return Err("the statistics in the state do not match the parameter statistics".into());
     }
-    ex.mesh.cfg = fresh.mesh.cfg;
-    let sigma = ex.mesh.sigma;
-    ex.mesh.set_sigma(sigma);
-    let mut values = vec![ex.t, ex.mesh.e_gate, ex.mesh.e_start];
+    let describe = ex.rig.mesh.describe_events;
+    ex.rig.restore_config(&fresh.rig);
+    ex.rig.mesh.describe_events = describe;
+    let mut values = vec![ex.t, ex.rig.e_gate, ex.rig.e_start];
     values.extend_from_slice(&ex.y);
-    values.extend_from_slice(&ex.mesh.sigma);
+    values.extend_from_slice(&ex.rig.sigma);
     if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
         return Err(format!(
             "a value of the Model Exchange state is not finite ({bad})"
@@ -186,7 +183,7 @@ fn rebuild_exchange(ex: &mut Exchange, s: &Snapshot) -> Result<(), String> {
 mod tests {
     use super::*;
     use crate::fmi::instance::{FmiState, SpurGearMesh};
-    use crate::model::mesh::Ramp;
+    use crate::model::paper_rig::Ramp;
     use crate::model::Loads;
     use crate::variables::{Inputs, Params};
     use fmi2_slave::instance::Saved;

@@ -7,10 +7,10 @@ use super::{fmu_state, outputs};
 use crate::driver::exchange::{EventError, Exchange};
 use crate::driver::simulation::Simulation;
 use crate::driver::DriverError;
-use crate::model::geometry;
-use crate::model::mesh::Ramp;
+
+use crate::model::paper_rig::Ramp;
 use crate::model::Loads;
-use crate::model::{Mesh, State};
+use crate::model::{PaperRig, State};
 use crate::variables::{
     Causality, Inputs, Outputs, Params, Var, VarType, Variability, GUID, LOG_CATEGORIES,
     MODEL_IDENTIFIER,
@@ -72,10 +72,10 @@ impl Snapshot {
     }
 
     /// The mesh and the state at the current time, if there is a run (of either interface).
-    fn current(&self) -> Option<(&Mesh, State)> {
+    fn current(&self) -> Option<(&PaperRig, State)> {
         match (&self.me, &self.sim) {
-            (Some(ex), _) => Some((&ex.mesh, ex.y)),
-            (None, Some(sim)) => Some((&sim.mesh, sim.driver.state())),
+            (Some(ex), _) => Some((&ex.rig, ex.y)),
+            (None, Some(sim)) => Some((&sim.rig, sim.driver.state())),
             (None, None) => None,
         }
     }
@@ -140,7 +140,7 @@ impl Slave for SpurGearMesh {
         self.snap
             .sim
             .as_ref()
-            .map_or_else(Vec::new, |s| s.mesh.geo.warnings.clone())
+            .map_or_else(Vec::new, |s| s.rig.geo.warnings.clone())
     }
 
     #[inline]
@@ -314,7 +314,7 @@ impl Slave for SpurGearMesh {
         }
         let debug_events = log.enabled(LOG_EVENTS);
         let sim = self.snap.sim.as_mut().expect("initialized in StepComplete");
-        sim.mesh.describe_events = debug_events;
+        sim.rig.mesh.describe_events = debug_events;
         // A step inside the integrator's last internal step only moves the time: no copy is
         // needed to undo it.
         let before = sim.needs_work(t_end).then(|| sim.clone());
@@ -456,7 +456,7 @@ impl Slave for SpurGearMesh {
     fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
         match &self.snap.me {
             Some(ex) => ex.nominals(n),
-            None => Exchange::scales(&self.build()?.mesh, n),
+            None => Exchange::scales(&self.build()?.rig, n),
         }
         Ok(())
     }
@@ -468,7 +468,7 @@ impl Slave for SpurGearMesh {
     fn me_new_discrete_states(&mut self, log: &Logger) -> Result<EventUpdate, Failure> {
         let debug_events = log.enabled(LOG_EVENTS);
         let ex = self.exchange()?;
-        ex.mesh.describe_events = debug_events;
+        ex.rig.mesh.describe_events = debug_events;
         let t = ex.t;
         let mut texts = Vec::new();
         let handled = ex.handle_events(&mut |r| {
@@ -554,7 +554,7 @@ impl SpurGearMesh {
     }
 
     /// The mesh and the state at the current time, of either interface, built if need be.
-    fn point(&mut self) -> Result<(&Mesh, State), Failure> {
+    fn point(&mut self) -> Result<(&PaperRig, State), Failure> {
         if self.snap.me.is_none() {
             self.build()?;
         }
@@ -683,7 +683,7 @@ impl SpurGearMesh {
         }
         // Inputs need only be finite (checked above); parameters are checked as a whole.
         if any_parameter {
-            geometry::validate(&params).map_err(|e| error(e.message))?;
+            crate::model::params::validate(&params).map_err(|e| error(e.message))?;
         }
         self.snap.params = params;
         self.snap.inputs = inputs;

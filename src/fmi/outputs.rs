@@ -4,9 +4,10 @@
 use crate::driver::exchange::{Exchange, ME_STATE};
 use crate::driver::simulation::Simulation;
 use crate::driver::Stats;
-use crate::model::mesh::{Energy, LawOutOfRange, Readout, DDTE, NY, V_S};
+use crate::model::mesh::LawOutOfRange;
+use crate::model::paper_rig::{Energy, Readout, DDTE, NY, V_S};
 use crate::model::statistics::Summary;
-use crate::model::{Mesh, State};
+use crate::model::{PaperRig, State};
 use crate::variables::{Calculated, Locals, Outputs, Var, STATES};
 
 /// A counter as an FMI Integer, saturating at 2^31 - 1.
@@ -18,7 +19,7 @@ fn saturate(n: u64) -> i32 {
 pub fn outputs(sim: &Simulation) -> Result<Outputs, LawOutOfRange> {
     let mut o = Outputs::default();
     write(sim, &mut o)?;
-    write_energy(&sim.mesh, &sim.driver.state(), &mut o)?;
+    write_energy(&sim.rig, &sim.driver.state(), &mut o)?;
     Ok(o)
 }
 
@@ -26,7 +27,7 @@ pub fn outputs(sim: &Simulation) -> Result<Outputs, LawOutOfRange> {
 /// every communication step; in place saves two copies of the struct), all but the energy
 /// account (`write_energy`).
 pub fn write(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
-    let r = sim.mesh.readout(&sim.driver.state())?;
+    let r = sim.rig.readout(&sim.driver.state())?;
     let summary = sim.statistics().map(|s| s.summary()).unwrap_or_default();
     assemble(&r, &summary, &sim.driver.stats, o);
     Ok(())
@@ -35,9 +36,9 @@ pub fn write(sim: &Simulation, o: &mut Outputs) -> Result<(), LawOutOfRange> {
 /// `write` for Model Exchange: at the state the master set, with the statistics up to its
 /// last completed step and its counts of steps and evaluations.
 pub fn write_exchange(ex: &Exchange, o: &mut Outputs) -> Result<(), LawOutOfRange> {
-    let r = ex.mesh.readout(&ex.y)?;
+    let r = ex.rig.readout(&ex.y)?;
     let summary = ex
-        .mesh
+        .rig
         .stats
         .as_ref()
         .map(|s| s.summary())
@@ -48,7 +49,7 @@ pub fn write_exchange(ex: &Exchange, o: &mut Outputs) -> Result<(), LawOutOfRang
 
 /// The outputs that `write` leaves out: they cost a law evaluation per flank (the elastic
 /// energy), so the FMU computes them when a master reads one (`is_energy`).
-pub fn write_energy(mesh: &Mesh, y: &State, o: &mut Outputs) -> Result<(), LawOutOfRange> {
+pub fn write_energy(mesh: &PaperRig, y: &State, o: &mut Outputs) -> Result<(), LawOutOfRange> {
     let e: Energy = mesh.energy(y)?;
     o.E_kin = e.e_kin;
     o.E_el = e.e_el;
@@ -58,7 +59,7 @@ pub fn write_energy(mesh: &Mesh, y: &State, o: &mut Outputs) -> Result<(), LawOu
 
 /// The locals at state y: the states that are not outputs, and every state's derivative (a
 /// right-hand-side evaluation, so only when a master reads one).
-pub fn locals(mesh: &Mesh, y: &State) -> Result<Locals, LawOutOfRange> {
+pub fn locals(mesh: &PaperRig, y: &State) -> Result<Locals, LawOutOfRange> {
     let mut dy = [0.0; NY];
     mesh.rhs(y, &mut dy)?;
     let mut l = Locals {
@@ -86,32 +87,32 @@ pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
     o.w_A = r.w_a;
     o.w_B = r.w_b;
     o.dte = r.dte;
-    o.F_f1 = r.pair_force[0];
-    o.F_f2 = r.pair_force[1];
-    o.F_b1 = r.pair_force[2];
-    o.F_b2 = r.pair_force[3];
-    o.F_fwd = r.flank_force[0];
-    o.F_bwd = r.flank_force[1];
-    o.n_fwd = r.flank_pairs[0] as i32;
-    o.n_bwd = r.flank_pairs[1] as i32;
-    o.tau_mesh_A = r.tq_a;
-    o.tau_mesh_B = r.tq_b;
+    o.F_f1 = r.mesh.pair_force[0];
+    o.F_f2 = r.mesh.pair_force[1];
+    o.F_b1 = r.mesh.pair_force[2];
+    o.F_b2 = r.mesh.pair_force[3];
+    o.F_fwd = r.mesh.flank_force[0];
+    o.F_bwd = r.mesh.flank_force[1];
+    o.n_fwd = r.mesh.flank_pairs[0] as i32;
+    o.n_bwd = r.mesh.flank_pairs[1] as i32;
+    o.tau_mesh_A = r.mesh.tq_a;
+    o.tau_mesh_B = r.mesh.tq_b;
     o.P_loss = r.p_loss;
-    o.s_f1 = r.contact_point[0];
-    o.s_f2 = r.contact_point[1];
-    o.s_b1 = r.contact_point[2];
-    o.s_b2 = r.contact_point[3];
+    o.s_f1 = r.mesh.contact_point[0];
+    o.s_f2 = r.mesh.contact_point[1];
+    o.s_b1 = r.mesh.contact_point[2];
+    o.s_b2 = r.mesh.contact_point[3];
     o.W_ext = r.w_ext;
     o.W_loss = r.w_loss;
     o.E_gate = r.e_gate;
     o.n_events = saturate(r.n_events);
     o.n_impacts = saturate(r.n_impacts);
     o.x_slider = r.x_slider;
-    o.F_B_x = r.force_on_b[0];
-    o.F_B_y = r.force_on_b[1];
-    o.k_mesh = r.k_mesh;
-    o.load_share = if r.flank_force[0] != 0.0 {
-        r.pair_force[0] / r.flank_force[0]
+    o.F_B_x = r.mesh.force_on_b[0];
+    o.F_B_y = r.mesh.force_on_b[1];
+    o.k_mesh = r.mesh.k_mesh;
+    o.load_share = if r.mesh.flank_force[0] != 0.0 {
+        r.mesh.pair_force[0] / r.mesh.flank_force[0]
     } else {
         0.0
     };
@@ -130,7 +131,7 @@ pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
 }
 
 /// The calculated parameters: the pair's geometry.
-pub fn calculated(mesh: &Mesh) -> Calculated {
+pub fn calculated(mesh: &PaperRig) -> Calculated {
     let g = &mesh.geo;
     Calculated {
         alpha_w: g.alpha_w,

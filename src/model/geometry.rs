@@ -2,7 +2,7 @@
 //! Two front ends, the paper's and standard gear data, give the same `Geometry`.
 
 use super::ModelError;
-use crate::variables::{Causality, Params, VarType, VARIABLES};
+use crate::variables::Params;
 use std::f64::consts::PI;
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -63,56 +63,8 @@ fn inv_inverse(target: f64) -> Option<f64> {
     None
 }
 
-fn err(var: &str, value: impl std::fmt::Display, why: &str) -> ModelError {
-    ModelError::new(format!("parameter {var} = {value}: {why}"))
-}
-
-/// Checks every parameter on its own; `Geometry::new` then checks how they fit together.
-pub fn validate(p: &Params) -> Result<(), ModelError> {
-    // Every Real parameter is finite, used by the chosen geometry or not: none may reach a master.
-    for info in VARIABLES {
-        if let Some(x) = p.get_real(info.var).filter(|x| !x.is_finite()) {
-            return Err(err(info.name, x, "must be finite"));
-        }
-    }
-    // The ranges of the variable table (modelDescription/variables.toml); a geometry front
-    // end's own parameters only when it is the one used.
-    for info in VARIABLES
-        .iter()
-        .filter(|v| v.causality == Causality::Parameter)
-        .filter(|v| v.geometry.is_none_or(|g| g == p.geometry))
-    {
-        // The value is formatted only for a message: on every fmi2SetReal of a parameter the
-        // formatting of all of them was 60 % of this check (callgrind).
-        let (x, int) = match (p.get_real(info.var), p.get_integer(info.var)) {
-            (Some(x), _) => (x, None),
-            (None, Some(i)) => (i as f64, Some(i)),
-            _ => continue,
-        };
-        if let Some(why) = info.range.violation(x) {
-            let shown = int.map_or_else(|| x.to_string(), |i| i.to_string());
-            let what = if info.ty == VarType::Integer {
-                format!("{why} ({})", info.description)
-            } else {
-                why
-            };
-            return Err(err(info.name, shown, &what));
-        }
-    }
-    crate::model::rig::Slider::from_params(p)?;
-    // The tooth counts are checked at initialization: they may be set after the strings.
-    for (name, text) in [
-        ("pitch_errors_A", &p.pitch_errors_A),
-        ("pitch_errors_B", &p.pitch_errors_B),
-    ] {
-        crate::model::deviations::parse_pitch_errors(name, text, None).map_err(ModelError::new)?;
-    }
-    Ok(())
-}
-
 impl Geometry {
     pub fn new(p: &Params) -> Result<Geometry, ModelError> {
-        validate(p)?;
         let e_star = 1.0 / ((1.0 - p.nu_A * p.nu_A) / p.E_A + (1.0 - p.nu_B * p.nu_B) / p.E_B);
         let (z_a, z_b) = (p.zA as f64, p.zB as f64);
         let (d_a, d_b) = (2.0 * PI / z_a, 2.0 * PI / z_b);
@@ -120,7 +72,7 @@ impl Geometry {
             1 => Self::paper(p, e_star)?,
             2 => Self::standard(p, e_star)?,
             other => {
-                return Err(err(
+                return Err(ModelError::parameter(
                     "geometry",
                     other,
                     "must be 1 (paper) or 2 (standard gear data)",
@@ -142,7 +94,7 @@ impl Geometry {
         g.m_c = match p.contacts_per_flank {
             0 => needed,
             m if (m as usize) < needed => {
-                return Err(err(
+                return Err(ModelError::parameter(
                     "contacts_per_flank",
                     m,
                     &format!(
@@ -188,7 +140,7 @@ impl Geometry {
             let r_w = r_b / self.alpha_w.cos();
             let pitch = thickness(t, r_b, r_w);
             if !(pitch > 0.0) {
-                return Err(err(
+                return Err(ModelError::parameter(
                     "backlash",
                     p.backlash,
                     &format!(
@@ -251,7 +203,7 @@ impl Geometry {
         let alpha_inf = (2.0 * PI / (p.zA_nominal as f64 * (1.0 + n))).atan();
         let alpha_w = p.alpha_factor * alpha_inf;
         if alpha_w >= PI / 2.0 {
-            return Err(err(
+            return Err(ModelError::parameter(
                 "alpha_factor",
                 p.alpha_factor,
                 &format!("alpha_w = alpha_factor*{alpha_inf} must lie in (alpha_inf, pi/2)"),
@@ -533,8 +485,11 @@ mod tests {
                 "interference",
             ),
         ];
+        // What a rig does: the parameters on their own, then how they fit together.
         for (p, word) in cases {
-            let e = Geometry::new(&p).unwrap_err();
+            let e = crate::model::params::validate(&p)
+                .and_then(|_| Geometry::new(&p))
+                .unwrap_err();
             assert!(e.message.contains(word), "{} should name {word}", e.message);
         }
     }

@@ -20,7 +20,7 @@
 //! nodes through the Lebesgue constant, and the rounding of the evaluation); build.rs checks
 //! the fit against TOLERANCE (1e-13) at the points where its error peaks.
 //!
-//! Against `lambert_w` and its `ln` per evaluation, the table made Johnson's `Mesh::rhs` on the
+//! Against `lambert_w` and its `ln` per evaluation, the table made Johnson's `PaperRig::rhs` on the
 //! paper rig about a quarter cheaper (`cargo bench --bench rhs_cost`): the library's log and
 //! its iteration are a chain of dependent operations that the polynomial's levels are not.
 

@@ -1,8 +1,12 @@
-//! The gear-mesh model: pure Rust, no FMI. Parameters -> geometry -> contact objects -> forces
-//! -> right-hand side. The integration driver (`crate::driver`) advances it.
+//! The gear models: pure Rust, no FMI. Parameters -> geometry -> contact objects -> forces ->
+//! right-hand side. One mesh is a component (`mesh`: contact tracking, forces, events,
+//! readout); rigs own the equations of motion and reuse it: the paper's two-wheel rig
+//! (`paper_rig`) and the gear train (`train`). The integration driver (`crate::driver`)
+//! advances them.
 
 pub mod chebyshev;
 pub mod contact;
+pub mod contact_law;
 pub mod deviations;
 pub mod geometry;
 pub mod johnson;
@@ -10,6 +14,8 @@ pub mod law;
 pub mod lower_branch;
 pub mod lower_branch_fit;
 pub mod mesh;
+pub mod paper_rig;
+pub mod params;
 pub mod piecewise;
 pub mod rig;
 pub mod rigid;
@@ -17,7 +23,8 @@ pub mod static_mesh;
 pub mod statistics;
 pub mod tooth_structure;
 
-pub use mesh::{ContactModel, Loads, Mesh, State, NY};
+pub use mesh::ContactModel;
+pub use paper_rig::{Loads, PaperRig, State, NY};
 
 /// An invalid parameter set or initial state, with a message naming the variable and the value.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -29,5 +36,10 @@ pub struct ModelError {
 impl ModelError {
     pub fn new(message: String) -> Self {
         ModelError { message }
+    }
+
+    /// "parameter {var} = {value}: {why}".
+    pub fn parameter(var: &str, value: impl std::fmt::Display, why: &str) -> Self {
+        ModelError::new(format!("parameter {var} = {value}: {why}"))
     }
 }

@@ -1,5 +1,5 @@
 //! Rigid contact (`contact_model = 2`, rig-and-modes.md §2): the teeth are a unilateral
-//! constraint. The numbers and laws that define it live here; `mesh.rs` holds the modes.
+//! constraint. The numbers and laws that define it live here; the mesh component (`mesh/`) holds the modes and the paper rig (`paper_rig/rigid_contact.rs`) the dynamics.
 //!
 //! - Locked on a flank, the wheels roll as one body and the constraint force N >= 0 is the
 //!   Lagrange multiplier of d^2 delta/dt^2 = 0. Every load is linear in N (friction too, for

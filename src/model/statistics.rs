@@ -12,8 +12,7 @@
 //! extremum to 1e-6 of the piece (the value's error is quadratic in that: ~1e-12 relative).
 //! Modes are constant inside a piece, so the times separated and backward are exact.
 
-use super::mesh::{LawOutOfRange, Mesh, DTE};
-use super::State;
+use super::mesh::LawOutOfRange;
 
 /// 5-point Gauss-Legendre nodes and weights on [0, 1].
 const NODES: [f64; 5] = [
@@ -76,19 +75,22 @@ impl Statistics {
 
     /// Adds the piece [t0, t1] of a step, on which `y` is the dense output and the mesh's
     /// modes hold.
+    /// Adds the piece [t0, t1] of a step between events, on which the contact modes
+    /// `(carrying, backward)` hold, `dte(t)` is the dense output's dte and `force(t)` the total
+    /// normal force.
     pub fn add(
         &mut self,
-        mesh: &Mesh,
+        (carrying, backward): (bool, bool),
         t0: f64,
         t1: f64,
-        y: &dyn Fn(f64) -> State,
+        dte: &dyn Fn(f64) -> f64,
+        force: &dyn Fn(f64) -> Result<f64, LawOutOfRange>,
     ) -> Result<(), LawOutOfRange> {
         let a = t0.max(self.start);
         if !(t1 > a) {
             return Ok(());
         }
         let h = t1 - a;
-        let (carrying, backward) = mesh.contact_modes();
         self.duration += h;
         if !carrying {
             self.t_separated += h;
@@ -103,25 +105,23 @@ impl Statistics {
         for (k, x) in NODES.iter().enumerate() {
             ts[k + 1] = a + x * h;
         }
-        let ys: Vec<State> = ts.iter().map(|&t| y(t)).collect();
+        let dte_values: Vec<f64> = ts.iter().map(|&t| dte(t)).collect();
         for k in 0..5 {
-            let d = ys[k + 1][DTE];
+            let d = dte_values[k + 1];
             self.int_dte += h * WEIGHTS[k] * d;
             self.int_dte2 += h * WEIGHTS[k] * d * d;
         }
-        let dte = |t: f64| Ok(y(t)[DTE]);
-        let dte_values: Vec<f64> = ys.iter().map(|s| s[DTE]).collect();
-        self.dte_max = self.dte_max.max(peak(&ts, &dte_values, &dte)?);
-        let neg = |t: f64| Ok(-y(t)[DTE]);
+        let dte_ok = |t: f64| Ok(dte(t));
+        self.dte_max = self.dte_max.max(peak(&ts, &dte_values, &dte_ok)?);
+        let neg = |t: f64| Ok(-dte(t));
         let neg_values: Vec<f64> = dte_values.iter().map(|d| -d).collect();
         self.dte_min = self.dte_min.min(-peak(&ts, &neg_values, &neg)?);
         if carrying {
-            let force = |t: f64| mesh.normal_force(&y(t));
-            let values = ys
+            let values = ts
                 .iter()
-                .map(|s| mesh.normal_force(s))
+                .map(|&t| force(t))
                 .collect::<Result<Vec<f64>, _>>()?;
-            self.f_max = self.f_max.max(peak(&ts, &values, &force)?);
+            self.f_max = self.f_max.max(peak(&ts, &values, force)?);
         }
         Ok(())
     }

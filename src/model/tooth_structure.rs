@@ -12,9 +12,9 @@
 //!   root angle theta_f of Ma et al.'s improved method;
 //! - Weber's contact deformation between the contact and the tooth centre line.
 
+use super::contact_law::ContactLaw;
 use super::geometry::Geometry;
 use super::johnson::OutOfRange;
-use super::law::ContactLaw;
 use super::lower_branch;
 use super::piecewise::PiecewiseFit;
 use super::ModelError;

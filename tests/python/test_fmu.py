@@ -285,7 +285,7 @@ def test_static_load_at_rest_with_contact_ratio_one(new_instance):
     penetration. Spec §3: f1 sits at point a, and the gate s_A - max(delta, 0) >= s_a is
     inclusive, so f1 carries tau_A/rAb from t = 0 and the state is an equilibrium.
     The FMU decides an event function that is exactly 0 with zero rate as 'negative'
-    (Mesh::set_sign: `v > 0.0`), so f1 is outside the gate, nothing carries, and the teeth pass
+    (GearMesh::set_sign: `v > 0.0`), so f1 is outside the gate, nothing carries, and the teeth pass
     through each other (dte grows to ~0.85 mm in 5 ms with every force 0)."""
     tau_a = 100.0
     f_total = tau_a / RAB

@@ -19,6 +19,8 @@ Same policy as regenerate.py (the single-mesh scenes), applied to train_ref:
   * suggested tolerances: trace 0.1 % of the variable's range, at least 1e-5 of its largest
     magnitude (regenerate.suggested_trace_tol); statistics 2x the ensemble spread with the
     floors of suggested_stat_tol below.
+A statistics scene's CSV keeps only the columns its statistics (train_ref.statistics) and its
+compared variables need, to keep the file small; a trace scene's keeps every output.
 Runs on one process by default: the machine is shared (--jobs N for more).
 """
 
@@ -70,6 +72,17 @@ def run_job(job):
     return {"name": name, "variant": variant, "k": k, "table": res.table, "names": res.names,
             "events": ev, "seconds": dt, "stats": stats, "rtol": rtol,
             "n_restarts": res.n_restarts, "n_missed": res.n_missed, "n_hidden": res.n_hidden}
+
+
+def stored_columns(scene, names):
+    """Indices of the columns written to the reference CSV (see the module docstring)."""
+    if scene.get("mode", "trace") != "statistics":
+        return list(range(len(names)))
+    keep = set(scene.get("compare", {}).get("variables", []))
+    for n in names:
+        if n == "time" or n.endswith((".theta", ".w", ".dte", ".n_fwd", ".n_bwd")):
+            keep.add(n)
+    return [i for i, n in enumerate(names) if n in keep]
 
 
 def suggested_stat_tol(stat, ref, devs, cycles, n_rows):
@@ -124,7 +137,8 @@ def main(argv=None):
         sc, rs = scenes[n], by[n]
         ref = next(r for r in rs if r["variant"] == "ref")
         path = os.path.join(REF_DIR, n + ".csv")
-        T.write_table_csv(path, ref["names"], ref["table"])
+        cols = stored_columns(sc, ref["names"])
+        T.write_table_csv(path, [ref["names"][i] for i in cols], ref["table"][:, cols])
         print(f"{n}: {len(ref['table'])} rows, {os.path.getsize(path) / 1e3:.0f} kB, "
               f"{ref['seconds']:.1f} s, {len(ref['events'])} events, {ref['n_restarts']} restarts")
         if args.no_accuracy:

@@ -6,7 +6,7 @@
 //!   self-referential value, done safely with the `self_cell` crate (no `unsafe` here, no leaking);
 //!   (b) the closure cannot borrow the per-call `&dyn Rhs`: it holds an `Rc<dyn Rhs>` given to
 //!   `DiffsolMethod::new`. The loop keeps the modes inside that same model object (`peer::MeshRhs`
-//!   holds the `Mesh` in a `RefCell`) and changes them only between restarts. The `rhs` argument of the trait methods must be that
+//!   holds the `PaperRig` in a `RefCell`) and changes them only between restarts. The `rhs` argument of the trait methods must be that
 //!   same object (checked by `debug_assert`); it is otherwise unused.
 //! * `restart` keeps the problem (closures, tolerances, Jacobian statistics) and rebuilds only the
 //!   solver, with `t0`/`y0` changed: cheap, and it drops all history, Jacobians and LU factors

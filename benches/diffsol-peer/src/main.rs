@@ -29,7 +29,7 @@ use spur_gear_mesh::driver::dopri5::Dopri5;
 use spur_gear_mesh::driver::simulation::tolerance;
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::driver::Stats;
-use spur_gear_mesh::model::mesh::N_CONTROLLED;
+use spur_gear_mesh::model::paper_rig::N_CONTROLLED;
 use spur_gear_mesh::variables::{Inputs, Params, VarType, VARIABLES};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -398,7 +398,7 @@ fn restart_cost(opts: PeerOptions) {
     p.rel_tol = rtol;
     let mut sim = Simulation::new(&p, &sc.inputs, 0.0, rtol).unwrap();
     sim.advance(0.025, &mut |_, _| {}).unwrap();
-    let (mesh, y, t) = (sim.mesh.clone(), sim.driver.state(), 0.025);
+    let (mesh, y, t) = (sim.rig.clone(), sim.driver.state(), 0.025);
     let tol = tolerance(&mesh, rtol);
     let h = 1e-6;
     let (batch, rounds) = (500, 9);

@@ -10,8 +10,8 @@ use std::rc::Rc;
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::driver::System;
 use spur_gear_mesh::model::contact::N_EVENTS;
-use spur_gear_mesh::model::mesh::{DTE, N_CONTROLLED};
-use spur_gear_mesh::model::{Mesh, State, NY};
+use spur_gear_mesh::model::paper_rig::{DTE, N_CONTROLLED};
+use spur_gear_mesh::model::{PaperRig, State, NY};
 use spur_gear_mesh::variables::{Inputs, Params};
 
 use crate::diffsol_method::{DiffsolKind, DiffsolMethod};
@@ -81,9 +81,9 @@ pub fn run_ours(sc: &Scene, solver: i32, rtol: f64) -> Result<RunOut, String> {
 /// The mesh as diffsol sees it: the four controlled states (theta_A, dte, w_A, w_B). The two
 /// quadratures (external work, dissipated energy) do not feed back and are under no error control
 /// in the FMU either; leaving them out saves diffsol two vector lanes, a small advantage to it.
-/// The modes live in the `Mesh` and change only in `handle_event`, between restarts.
+/// The modes live in the `PaperRig` and change only in `handle_event`, between restarts.
 pub struct MeshRhs {
-    pub mesh: RefCell<Mesh>,
+    pub mesh: RefCell<PaperRig>,
 }
 
 pub fn full(y: &[f64]) -> State {
@@ -136,7 +136,7 @@ pub struct Pending {
 /// margins at the end point and the midpoint of the last step, then Illinois regula falsi on the
 /// dense output for each function that crossed; the earliest wins.
 pub fn locate(
-    sys: &Mesh,
+    sys: &PaperRig,
     t0: f64,
     t1: f64,
     y1: &State,
@@ -179,7 +179,7 @@ pub fn locate(
 
 /// Driver::root: a time at which margin i has crossed, within a few ulp of the root.
 fn root(
-    sys: &Mesh,
+    sys: &PaperRig,
     i: usize,
     mut a: f64,
     mut fa: f64,
@@ -223,7 +223,7 @@ pub fn start_diffsol(
     rtol: f64,
     opts: PeerOptions,
 ) -> Result<(Rc<MeshRhs>, DiffsolMethod), String> {
-    let (mesh, y0) = Mesh::new(&sc.params, &sc.inputs).map_err(|e| e.to_string())?;
+    let (mesh, y0) = PaperRig::new(&sc.params, &sc.inputs).map_err(|e| e.to_string())?;
     let atol = mesh.abs_tol(rtol).to_vec();
     let model = Rc::new(MeshRhs {
         mesh: RefCell::new(mesh),
@@ -237,7 +237,7 @@ pub fn start_diffsol(
 /// A diffsol method on a scene, with the FMU driver's step limit (System::max_step: a quarter of
 /// a base pitch of contact travel; for Tsit45 also 2/omega_n, the explicit stability limit) and
 /// its event handling: after every accepted step the event margins are checked, the earliest
-/// crossing is located on diffsol's dense output, the mode changes (Mesh::handle_event) and the
+/// crossing is located on diffsol's dense output, the mode changes (PaperRig::handle_event) and the
 /// method restarts there.
 ///
 /// diffsol has no maximum step size option: the limit is imposed as a stop time t + h_max, which
