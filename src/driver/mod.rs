@@ -13,6 +13,8 @@ pub mod dop853;
 pub mod dopri5;
 pub mod exchange;
 pub mod simulation;
+pub mod train_simulation;
+pub mod wide;
 
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;

@@ -22,6 +22,7 @@ pub mod rigid;
 pub mod static_mesh;
 pub mod statistics;
 pub mod tooth_structure;
+pub mod train;
 
 pub use mesh::ContactModel;
 pub use paper_rig::{Loads, PaperRig, State, NY};

@@ -1,0 +1,170 @@
+//! The gear train and its driver together (what the train FMU steps), and the train as the
+//! driver's `System`: the same event location as the single mesh, over every mesh's events.
+
+use super::{Driver, DriverError, Method, System, Tolerance};
+use crate::model::mesh::{EventReport, LawOutOfRange};
+use crate::model::statistics::Statistics;
+use crate::model::train::{Margins, State, Train, TrainLoads, TrainSpec};
+use crate::model::ModelError;
+
+impl System for Train {
+    type State = State;
+    type Margins = Margins;
+    type Error = LawOutOfRange;
+    type Report = EventReport;
+    fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
+        Train::rhs(self, y, dy)
+    }
+    fn event_margins(&self, y: &State, out: &mut Margins) {
+        Train::event_margins(self, y, out)
+    }
+    fn event_margins_and_rates(
+        &self,
+        y: &State,
+        dy: &State,
+        margins: &mut Margins,
+        rates: &mut Margins,
+    ) {
+        Train::event_margins_and_rates(self, y, dy, margins, rates)
+    }
+    fn margin(&self, i: usize, y: &State) -> f64 {
+        Train::margin(self, i, y)
+    }
+    fn n_events(&self) -> usize {
+        self.n_event_fns()
+    }
+    fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
+        Train::check_state(self, y)
+    }
+    fn handle_event(&mut self, i: usize, y: &mut State) -> Result<EventReport, LawOutOfRange> {
+        Train::handle_event(self, i, y)
+    }
+    fn max_step(&self, y: &State, stability: Option<f64>) -> f64 {
+        Train::max_step(self, y, stability)
+    }
+    fn dim(&self) -> usize {
+        Train::dim(self)
+    }
+    fn observe(&mut self, t0: f64, t1: f64, y: &dyn Fn(f64) -> State) -> Result<(), LawOutOfRange> {
+        Train::observe(self, t0, t1, y)
+    }
+}
+
+/// The driver's tolerances for the train at rel_tol (`Train::abs_tol`).
+pub fn tolerance(train: &Train, rtol: f64) -> Tolerance<State> {
+    Tolerance {
+        rtol,
+        atol: train.abs_tol(rtol),
+    }
+}
+
+#[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TrainSimulation {
+    pub train: Train,
+    pub driver: Driver<Train>,
+}
+
+impl Clone for TrainSimulation {
+    /// As `Simulation::clone`: a BDF driver clones into a restart point, with the statistics
+    /// up to now.
+    fn clone(&self) -> Self {
+        let d = &self.driver;
+        let restart_point = matches!(d.method, Method::Bdf(_)) && !d.needs_restart;
+        let mut train = self.train.clone();
+        let mut driver = self.driver.clone();
+        if restart_point && train.stats.is_some() && d.t > d.observed {
+            train.stats = self.statistics();
+            driver.observed = driver.t;
+        }
+        TrainSimulation { train, driver }
+    }
+}
+
+impl TrainSimulation {
+    /// `statistics`: the start time of the statistics, if kept.
+    pub fn new(
+        spec: TrainSpec,
+        tau: Vec<f64>,
+        statistics: Option<f64>,
+        solver: i32,
+        t0: f64,
+        rel_tol: f64,
+    ) -> Result<TrainSimulation, ModelError> {
+        let (train, y0) = Train::new(spec, tau, statistics)?;
+        let tol = tolerance(&train, rel_tol);
+        let driver = Driver::new(Method::from_solver(solver), tol, t0, y0);
+        Ok(TrainSimulation { train, driver })
+    }
+
+    pub fn time(&self) -> f64 {
+        self.driver.t
+    }
+
+    /// New torques or coefficients: the integration restarts at the current time.
+    pub fn set_loads(&mut self, loads: TrainLoads) {
+        if loads != self.train.loads {
+            self.observe_to_now();
+            self.driver.invalidate();
+            let y = self.driver.state();
+            self.train.set_loads(loads, &y);
+            self.driver.y_start = y;
+            self.driver.tol = tolerance(&self.train, self.driver.tol.rtol);
+        }
+    }
+
+    /// diffsol's BDF cannot be copied: before its state is saved, the live simulation restarts
+    /// at the current point too.
+    pub fn make_restart_point_if_needed(&mut self) {
+        if matches!(self.driver.method, Method::Bdf(_)) {
+            self.observe_to_now();
+            self.driver.invalidate();
+        }
+    }
+
+    fn observe_to_now(&mut self) {
+        let t = self.driver.t;
+        if self.driver.observe_to(&mut self.train, t).is_err() {
+            if let Some(all) = self.train.stats.as_mut() {
+                all.iter_mut().for_each(Statistics::poison);
+            }
+        }
+    }
+
+    /// Each mesh's statistics up to the current time.
+    pub fn statistics(&self) -> Option<Vec<Statistics>> {
+        let mut all = self.train.stats.clone()?;
+        let d = &self.driver;
+        if !d.needs_restart && d.t > d.observed {
+            let y = |x| d.method.interpolate(x);
+            for (m, s) in all.iter_mut().enumerate() {
+                if self
+                    .train
+                    .add_statistics(m, s, d.observed, d.t, &y)
+                    .is_err()
+                {
+                    s.poison();
+                }
+            }
+        }
+        Some(all)
+    }
+
+    /// Whether advancing to t_end integrates or handles an event.
+    pub fn needs_work(&self, t_end: f64) -> bool {
+        let d = &self.driver;
+        d.needs_restart || d.pending.is_some_and(|e| e.t <= t_end) || d.method_time() < t_end
+    }
+
+    pub fn advance(
+        &mut self,
+        t_end: f64,
+        log: &mut dyn FnMut(f64, &EventReport),
+    ) -> Result<(), DriverError<LawOutOfRange>> {
+        self.driver.advance(&mut self.train, t_end, log)
+    }
+
+    /// The state at the current time.
+    pub fn state(&self) -> State {
+        self.driver.state()
+    }
+}

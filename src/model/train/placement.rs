@@ -1,0 +1,132 @@
+//! Where the teeth are (gear-train.md §3-§4): each mesh's paper frame in the housing, the
+//! bodies' start angles from body 1 along the tree, and which teeth of A and B meet.
+
+use super::topology::{Edge, TrainSpec, Tree};
+use crate::model::geometry::Geometry;
+use crate::model::mesh::Placement;
+use std::f64::consts::PI;
+
+/// A mesh's frame: `s` = +1 when the housing frame is only rotated (sigma_A = -1), -1 when it
+/// is mirrored too (sigma_A = +1); psi^m = s (psi - beta), and a gear's tooth 0 axis is at
+/// chi = psi^m + s mount.
+fn frame_sign(sense_a: f64) -> f64 {
+    -sense_a
+}
+
+/// The absolute start angle psi(0) of the gear being placed, given its axis angle chi in the
+/// mesh frame up to whole teeth: chi = x + q dz. Returns (psi, q) with psi in (-dz/2, dz/2]
+/// (the tooth nearest its reference is tooth 0).
+fn nearest(x: f64, dz: f64, s: f64, beta: f64, mount: f64) -> (f64, i64) {
+    // psi = beta - mount + s chi = base + s q dz
+    let base = beta - mount + s * x;
+    let j = ((-0.5 * dz - base) / dz).floor() + 1.0;
+    let mut psi = base + j * dz;
+    let mut j = j as i64;
+    // Rounding at the interval's ends.
+    if psi <= -0.5 * dz {
+        psi += dz;
+        j += 1;
+    } else if psi > 0.5 * dz {
+        psi -= dz;
+        j -= 1;
+    }
+    (psi, j * s as i64)
+}
+
+/// The start of every body and mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Start {
+    /// Absolute start angle of each body [rad].
+    pub psi: Vec<f64>,
+    /// Each mesh's placement for the component.
+    pub meshes: Vec<Placement>,
+}
+
+/// Places the bodies along the tree (gear-train.md §4) and derives each mesh's pairing.
+pub fn place(spec: &TrainSpec, tree: &Tree, geo: &[Geometry]) -> Start {
+    let n = spec.bodies.len();
+    let mut psi = vec![f64::NAN; n];
+    psi[0] = spec.angle_start;
+    let mut meshes = vec![Placement::Paper { theta_a: 0.0 }; spec.meshes.len()];
+    for step in &tree.steps {
+        match step.edge {
+            Edge::Shaft(j) => {
+                let sh = &spec.shafts[j];
+                psi[step.to] = if step.from == sh.a {
+                    psi[sh.a] - tree.sense[sh.a] * sh.twist_start
+                } else {
+                    psi[sh.b] + tree.sense[sh.b] * sh.twist_start
+                };
+            }
+            Edge::Mesh(m) => {
+                let mp = &spec.meshes[m];
+                let g = &geo[m];
+                let s = frame_sign(tree.sense[mp.a]);
+                let beta = mp.center_angle;
+                let dte = mp.params.dte_start;
+                // Forward: delta = rAb (alpha_w - chi_A + tA/2) + rBb (alpha_w + pi - chi_B
+                // + tB/2) - L + (n_A - n_B) p_b for A's tooth n_A against B's n_B.
+                let fixed = g.r_ab * (g.alpha_w + 0.5 * g.t_a)
+                    + g.r_bb * (g.alpha_w + PI + 0.5 * g.t_b)
+                    - g.l
+                    - dte;
+                if step.from == mp.a {
+                    let chi_a = s * (psi[mp.a] - beta) + s * mp.mount_a;
+                    // r_bb chi_B = fixed - r_ab chi_A + q p_b, q = n_A - n_B.
+                    let x = (fixed - g.r_ab * chi_a) / g.r_bb;
+                    let (p, _) = nearest(x, g.d_b, s, beta, mp.mount_b);
+                    psi[mp.b] = p;
+                } else {
+                    let chi_b = s * (psi[mp.b] - beta) + s * mp.mount_b;
+                    let x = (fixed - g.r_bb * chi_b) / g.r_ab;
+                    let (p, _) = nearest(x, g.d_a, s, beta, mp.mount_a);
+                    psi[mp.a] = p;
+                }
+                meshes[m] = pairing(
+                    g,
+                    mp.params.backlash,
+                    s,
+                    beta,
+                    mp.mount_a,
+                    mp.mount_b,
+                    psi[mp.a],
+                    psi[mp.b],
+                    dte,
+                );
+            }
+        }
+    }
+    Start { psi, meshes }
+}
+
+/// The teeth that meet, from both gears' start angles: forward, delta = C + (n_A - n_B) p_b
+/// must be dte_start; backward, delta_b = C_b + (n_B - n_A) p_b must be -backlash - dte_start
+/// (the thickness closure of gear-mesh-model.md §2 makes both hold at once).
+#[allow(clippy::too_many_arguments)]
+pub fn pairing(
+    g: &Geometry,
+    backlash: f64,
+    s: f64,
+    beta: f64,
+    mount_a: f64,
+    mount_b: f64,
+    psi_a: f64,
+    psi_b: f64,
+    dte: f64,
+) -> Placement {
+    let chi_a = s * (psi_a - beta) + s * mount_a;
+    let chi_b = s * (psi_b - beta) + s * mount_b;
+    let c_fwd = g.r_ab * (g.alpha_w - chi_a + 0.5 * g.t_a)
+        + g.r_bb * (g.alpha_w + PI - chi_b + 0.5 * g.t_b)
+        - g.l;
+    let q = ((dte - c_fwd) / g.p_b).round() as i64;
+    let c_bwd = g.r_ab * (g.alpha_w + chi_a + 0.5 * g.t_a)
+        + g.r_bb * (g.alpha_w - PI + chi_b + 0.5 * g.t_b)
+        - g.l;
+    let q_b = ((-backlash - dte - c_bwd) / g.p_b).round() as i64;
+    Placement::Teeth {
+        chi_a,
+        b_fwd: -q,
+        b_bwd: q_b,
+    }
+}

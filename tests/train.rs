@@ -1,0 +1,303 @@
+//! The gear train (gear-train.md) against the single mesh and against closed forms: the checks
+//! of its §7 that need no reference trace. Every tolerance states where it comes from.
+
+use spur_gear_mesh::driver::simulation::Simulation;
+use spur_gear_mesh::driver::train_simulation::TrainSimulation;
+use spur_gear_mesh::model::geometry::Geometry;
+use spur_gear_mesh::model::mesh::Placement;
+use spur_gear_mesh::model::train::{placement, Body, MeshPlace, Shaft, State, Train, TrainSpec};
+use spur_gear_mesh::variables::{Inputs, Params};
+
+/// The damped paper scene (scenes/damped.toml) as single-mesh parameters.
+fn damped() -> Params {
+    Params {
+        c_load: 2.0,
+        chi: 10.0,
+        w_A_start: 100.0,
+        w_B_start: 100.0 / 1.5,
+        dte_start: 5.592370531367129e-07,
+        ..Params::default()
+    }
+}
+
+/// gear-train.md §4: body 1's start angle that puts f1 at point a and then turns A by
+/// dte_start (the single mesh's start), in the frame of a mesh with centre angle 0 whose A
+/// turns clockwise: tooth 0's forward root at psi - tA/2 must be phiA(f1) = alpha_w - s_a/rAb,
+/// less dte_start/rAb.
+fn single_mesh_angle(p: &Params) -> f64 {
+    let g = Geometry::new(p).unwrap();
+    g.alpha_w - g.s_a / g.r_ab + 0.5 * g.t_a - p.dte_start / g.r_ab
+}
+
+/// The single mesh as a train of two bodies: B's drag is c_load.
+fn one_mesh_train(p: &Params) -> TrainSpec {
+    one_mesh_train_mounted(p, 0.0)
+}
+
+/// The same with B's tooth 0 at `mount_b` from B's reference.
+fn one_mesh_train_mounted(p: &Params, mount_b: f64) -> TrainSpec {
+    TrainSpec {
+        bodies: vec![
+            Body {
+                j: p.J_A,
+                c: 0.0,
+                w_start: p.w_A_start,
+            },
+            Body {
+                j: p.J_B,
+                c: p.c_load,
+                w_start: p.w_B_start,
+            },
+        ],
+        angle_start: single_mesh_angle(p),
+        shafts: vec![],
+        meshes: vec![MeshPlace {
+            a: 0,
+            b: 1,
+            center_angle: 0.0,
+            mount_a: 0.0,
+            mount_b,
+            params: p.clone(),
+        }],
+    }
+}
+
+/// The single mesh numbers B's teeth from the one in contact at the start (f1 holds A0/B0),
+/// which faces A; a train's tooth 0 is the one nearest the body's reference (§4), so mount_B
+/// = pi gives the single mesh's numbering (and with it its per-tooth pitch errors). Mount 0
+/// pairs the same teeth physically, with B's numbers shifted by about zB/2.
+#[test]
+fn the_train_places_the_teeth_where_the_single_mesh_starts_them() {
+    let p = damped();
+    let g = Geometry::new(&p).unwrap();
+    let shifted = one_mesh_train(&p);
+    let start = placement::place(&shifted, &shifted.tree().unwrap(), std::slice::from_ref(&g));
+    match start.meshes[0] {
+        Placement::Teeth { b_fwd, b_bwd, .. } => {
+            assert_eq!(b_fwd - b_bwd, 1, "b1 holds B's tooth before f1's");
+            assert!((b_fwd - 16).abs() <= 1, "about zB/2 = 16.5 teeth: {b_fwd}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let spec = one_mesh_train_mounted(&p, std::f64::consts::PI);
+    let tree = spec.tree().unwrap();
+    let start = placement::place(&spec, &tree, std::slice::from_ref(&g));
+    // f1 holds A0/B0 and b1 A1/B0 in the single mesh (contact.rs, `teeth`).
+    match start.meshes[0] {
+        Placement::Teeth { b_fwd, b_bwd, .. } => assert_eq!((b_fwd, b_bwd), (0, -1)),
+        other => panic!("{other:?}"),
+    }
+    // B is placed within half a pitch of its reference.
+    assert!(start.psi[1].abs() <= std::f64::consts::PI / g.z_b);
+    let (train, _) = Train::new(spec, vec![100.0, 0.0], None).unwrap();
+    let (rig, _) = spur_gear_mesh::model::PaperRig::new(&p, &Inputs::default()).unwrap();
+    // The same contact points at t = 0 (the train's angles start at 0, the single mesh's A at
+    // dte_start/rAb): they differ by rounding of numbers below 0.2 m.
+    for k in 0..4 {
+        let s_train = train.meshes[0].sigma[k];
+        let s_rig = rig.sigma[k] + g.r_ab * p.dte_start / g.r_ab * [1.0, 1.0, -1.0, -1.0][k];
+        assert!(
+            (s_train - s_rig).abs() < 1e-15,
+            "slot {k}: {s_train} vs {s_rig}"
+        );
+        assert_eq!(train.meshes[0].teeth(k), rig.teeth(k), "slot {k}");
+    }
+    assert_eq!(train.meshes[0].sign, rig.sign);
+}
+
+fn run_rig(p: &Params, rtol: f64, h: f64, n: usize) -> Vec<[f64; 4]> {
+    let i = Inputs {
+        tau_A: 100.0,
+        ..Inputs::default()
+    };
+    let mut sim = Simulation::new(p, &i, 0.0, rtol).unwrap();
+    (1..=n)
+        .map(|k| {
+            sim.advance(k as f64 * h, &mut |_, _| {}).unwrap();
+            let r = sim.rig.readout(&sim.driver.state()).unwrap();
+            [r.dte, r.w_a, r.w_b, r.mesh.flank_force[0]]
+        })
+        .collect()
+}
+
+fn run_train(
+    spec: TrainSpec,
+    tau: Vec<f64>,
+    rtol: f64,
+    h: f64,
+    n: usize,
+) -> (TrainSimulation, Vec<State>) {
+    let mut sim = TrainSimulation::new(spec, tau, None, 1, 0.0, rtol).unwrap();
+    let ys = (1..=n)
+        .map(|k| {
+            sim.advance(k as f64 * h, &mut |_, _| {}).unwrap();
+            sim.state()
+        })
+        .collect();
+    (sim, ys)
+}
+
+/// gear-train.md §7, first check: one mesh and two bodies placed as §4 says is the single
+/// mesh. The right-hand sides agree bit for bit at the start (same coordinates, same
+/// arithmetic); the traces of the damped scene agree to the integrators' accuracy: at rel_tol
+/// 1e-10 each run's dte is within about 5 rel_tol of the range of the exact solution
+/// (docs/performance.md measures 5.5e-6 at 1e-6 for this scene), so 1e-7 of the range leaves
+/// a factor 100 for the error's growth at tight tolerances and the two step sequences.
+#[test]
+fn one_mesh_and_two_bodies_is_the_single_mesh() {
+    let p = damped();
+    let spec = one_mesh_train(&p);
+    let (train, y) = Train::new(spec.clone(), vec![100.0, 0.0], None).unwrap();
+    let i = Inputs {
+        tau_A: 100.0,
+        ..Inputs::default()
+    };
+    let (rig, yr) = spur_gear_mesh::model::PaperRig::new(&p, &i).unwrap();
+    let (mut dy, mut dyr) = ([0.0; 18], [0.0; 9]);
+    train.rhs(&y, &mut dy).unwrap();
+    rig.rhs(&yr, &mut dyr).unwrap();
+    // [w, dw, dte rate, d(dte rate)] of body 1 / wheel A.
+    assert_eq!(
+        [dy[0], dy[1], dy[4], dy[5]],
+        [dyr[0], dyr[2], dyr[1], dyr[3]]
+    );
+    let (h, n) = (1e-4, 1000);
+    let reference = run_rig(&p, 1e-10, h, n);
+    let (sim, ys) = run_train(spec, vec![100.0, 0.0], 1e-10, h, n);
+    let range = reference.iter().map(|r| r[0]).fold(f64::MIN, f64::max)
+        - reference.iter().map(|r| r[0]).fold(f64::MAX, f64::min);
+    let mut worst: f64 = 0.0;
+    for (r, y) in reference.iter().zip(&ys) {
+        let b = sim.train.bodies(y);
+        worst = worst.max((sim.train.dte(0, y) - r[0]).abs() / range);
+        assert!((b.w[0] - r[1]).abs() <= 1e-7 * r[1].abs());
+        assert!((b.w[1] - r[2]).abs() <= 1e-7 * r[2].abs());
+    }
+    assert!(worst <= 1e-7, "dte differs by {worst:e} of its range");
+}
+
+fn reducer(shaft_k: f64) -> TrainSpec {
+    let body = |j: f64, c: f64, w: f64| Body { j, c, w_start: w };
+    let stage = |a: usize, b: usize| MeshPlace {
+        a,
+        b,
+        center_angle: 0.0,
+        mount_a: 0.0,
+        mount_b: 0.0,
+        params: Params {
+            chi: 10.0,
+            ..Params::default()
+        },
+    };
+    TrainSpec {
+        bodies: vec![
+            body(0.4, 0.0, 100.0),
+            body(2.0, 0.0, 100.0 / 1.5),
+            body(0.4, 0.0, 100.0 / 1.5),
+            body(2.0, 2.0, 100.0 / 2.25),
+        ],
+        angle_start: 0.0,
+        shafts: vec![Shaft {
+            a: 1,
+            b: 2,
+            k: shaft_k,
+            d: 5.0,
+            twist_start: 0.0,
+        }],
+        meshes: vec![stage(0, 1), stage(2, 3)],
+    }
+}
+
+/// Rigid kinematics (gear-train.md §7): across every mesh the angles advance in the ratio of
+/// the tooth counts. rAb dtheta_A - rBb dtheta_B = d(dte), so the ratio of the angle increments
+/// differs from rBb/rAb = zB/zA by d(dte)/(rAb dtheta_B): dte stays within a few micrometres
+/// while rAb dtheta_B is ~0.4 m over 0.05 s, a relative 1e-5; 1e-4 bounds it.
+#[test]
+fn every_mesh_turns_in_the_ratio_of_its_tooth_counts() {
+    let (sim, ys) = run_train(reducer(1e5), vec![100.0, 0.0, 0.0, 0.0], 1e-8, 1e-3, 50);
+    let (b0, b1) = (sim.train.bodies(&ys[9]), sim.train.bodies(&ys[49]));
+    let d: Vec<f64> = (0..4).map(|i| b1.theta[i] - b0.theta[i]).collect();
+    for (a, b) in [(0, 1), (2, 3)] {
+        let ratio = d[a] / d[b];
+        assert!((ratio - 1.5).abs() <= 1e-4 * 1.5, "bodies {a}/{b}: {ratio}");
+    }
+    // Speeds stay positive and the shaft twists under the load it carries.
+    assert!(b1.w.iter().take(4).all(|&w| w > 0.0));
+}
+
+/// Energy (gear-train.md §5): with mu = 0 and no damping anywhere, kinetic and elastic energy
+/// change only by the external work and the gate's jumps. The residual is the integration
+/// error of a conserved quantity: at rel_tol 1e-9 the energies (~1e4 J) drift by far less
+/// than 1e-6 of them (the single mesh's energy test, tests/model_checks.rs, holds 1e-6 too).
+#[test]
+fn the_energy_balance_closes_with_shafts_and_meshes() {
+    let mut spec = reducer(1e5);
+    for m in &mut spec.meshes {
+        m.params.chi = 0.0;
+    }
+    spec.shafts[0].d = 0.0;
+    let (sim, ys) = run_train(spec, vec![100.0, 0.0, 0.0, 0.0], 1e-9, 1e-3, 30);
+    let y = ys.last().unwrap();
+    let (e_kin, _, residual) = sim.train.energy(y).unwrap();
+    assert!(
+        residual.abs() <= 1e-6 * e_kin,
+        "residual {residual} J of E_kin {e_kin} J"
+    );
+    assert!(sim.train.n_events > 100, "pair switches in both meshes");
+}
+
+/// A stiffer and stiffer shaft tends to one body of the summed inertia (gear-train.md §7): the
+/// reducer with bodies 2 and 3 merged into one carrying both gears is the limit; the
+/// difference in the output speed falls as the shaft stiffens.
+#[test]
+fn a_stiff_shaft_tends_to_one_body() {
+    let mut merged = reducer(1e5);
+    merged.bodies[1].j += merged.bodies[2].j;
+    merged.bodies.remove(2);
+    merged.shafts.clear();
+    merged.meshes[1].a = 1;
+    merged.meshes[1].b = 2;
+    let tau = |n: usize| {
+        let mut t = vec![0.0; n];
+        t[0] = 100.0;
+        t
+    };
+    let (h, n) = (1e-3, 20);
+    let (msim, my) = run_train(merged, tau(3), 1e-9, h, n);
+    let w_limit = msim.train.bodies(my.last().unwrap()).w[2];
+    let mut last = f64::INFINITY;
+    // Each shaft 10 % of critical damping on the reduced inertia J2 J3/(J2 + J3) = 1/3, so
+    // its vibration dies out and the quasi-static twist T/k remains.
+    for k in [1e6, 1e7, 1e8] {
+        let mut spec = reducer(k);
+        spec.shafts[0].d = 0.2 * (k / 3.0f64).sqrt();
+        let (sim, ys) = run_train(spec, tau(4), 1e-9, h, n);
+        let w = sim.train.bodies(ys.last().unwrap()).w[3];
+        let diff = (w - w_limit).abs();
+        assert!(diff < last, "k = {k}: {diff} not below {last}");
+        last = diff;
+    }
+    // At k = 1e8 the shaft's frequency (~2e4 rad/s) is far above the mesh's: the output speed
+    // differs from the one-body limit by a small fraction of its change over the run.
+    assert!(last <= 1e-3 * w_limit, "{last} vs {w_limit}");
+}
+
+/// Rigid contact and a broken tree are refused with the elements named.
+#[test]
+fn rigid_contact_and_broken_trees_are_refused() {
+    let mut spec = reducer(1e5);
+    spec.meshes[1].params.contact_model = 2;
+    let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
+    assert!(
+        e.contains("mesh[2].contact_model = 2") && e.contains("rigid"),
+        "{e}"
+    );
+    let mut spec = reducer(1e5);
+    spec.meshes[1].b = 0;
+    let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
+    assert!(e.contains("cycle"), "{e}");
+    let mut spec = reducer(1e5);
+    spec.meshes[0].params.zA = 23;
+    let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
+    assert!(e.starts_with("mesh[1]:"), "{e}");
+}
