@@ -27,7 +27,6 @@ Runs on one process by default: the machine is shared (--jobs N for more).
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
