@@ -1,13 +1,14 @@
-//! Generates into OUT_DIR the Rust bindings of the variable table and modelDescription.xml, both
-//! from modelDescription/variables.toml (see modelDescription/src/lib.rs), and the W_-1 table
-//! (src/model/lower_branch_fit.rs, included from src/model/lower_branch.rs).
+//! The build script of the model crate (gear-model/, whose Cargo.toml points here). Generates
+//! into OUT_DIR the Rust bindings of the variable table and modelDescription.xml, both from
+//! modelDescription/variables.toml (see modelDescription/src/lib.rs), and the W_-1 table
+//! (gear-model/src/model/lower_branch_fit.rs, included from gear-model/src/model/lower_branch.rs).
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 #[allow(dead_code)]
-#[path = "src/model/chebyshev.rs"]
+#[path = "gear-model/src/model/chebyshev.rs"]
 mod chebyshev;
-#[path = "src/model/lower_branch_fit.rs"]
+#[path = "gear-model/src/model/lower_branch_fit.rs"]
 mod lower_branch_fit;
 
 fn main() {
@@ -16,11 +17,11 @@ fn main() {
     model_description::write_generated(&model_description::load(), &version, &out);
     std::fs::write(out.join("lower_branch_table.rs"), lower_branch_table()).unwrap();
     for f in [
-        "modelDescription/variables.toml",
-        "modelDescription/src/lib.rs",
+        "../modelDescription/variables.toml",
+        "../modelDescription/src/lib.rs",
         "src/model/chebyshev.rs",
         "src/model/lower_branch_fit.rs",
-        "build.rs",
+        "../build.rs",
     ] {
         println!("cargo:rerun-if-changed={f}");
     }

@@ -6,7 +6,7 @@
 // `!(x < limit)` is how a check lets NaN fail too; `partial_cmp` would hide that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod driver;
 pub mod fmi;
-pub mod model;
-pub mod variables;
+/// The model and the driver live in the gear_model crate, shared with the other FMUs; they are
+/// re-exported here under the paths they always had.
+pub use gear_model::{driver, model, variables};

@@ -10,6 +10,8 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
+pub mod train;
+
 /// The table's source text, compiled in so every user sees the same table.
 pub const TABLE_TOML: &str = include_str!("../variables.toml");
 
@@ -40,6 +42,9 @@ pub struct ModelInfo {
     /// the outputs with empty dependencies); absent: the default, dependent on all knowns.
     #[serde(default)]
     pub output_dependencies: Option<String>,
+    /// The variableNamingConvention ("flat" unless given: "structured" for `body[1].J`).
+    #[serde(default)]
+    pub naming: Option<String>,
     /// The model reads input derivatives (fmi2SetRealInputDerivatives) and interpolates.
     #[serde(default)]
     pub can_interpolate_inputs: bool,
@@ -61,7 +66,7 @@ pub struct ModelExchange {
     pub event_indicators: Vec<[String; 2]>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 pub struct Unit {
     #[serde(default)]
     pub kg: i32,
@@ -207,9 +212,11 @@ impl Range {
 }
 "#;
 
-/// A variable name as a Rust identifier: `der(x)` becomes `der_x`.
+/// A variable name as a Rust identifier: `der(x)` becomes `der_x`, `mesh[2].zA` `mesh_2_zA`.
 pub fn ident(name: &str) -> String {
-    name.replace('(', "_").replace(')', "")
+    name.replace(['(', '['], "_")
+        .replace([')', ']'], "")
+        .replace('.', "_")
 }
 
 /// A description as rustdoc text: its units in brackets (\[m\]) are not links, and a `<` opens no
@@ -255,7 +262,7 @@ pub fn parse(text: &str) -> Table {
 }
 
 /// Structural checks that a typo in the table would otherwise only show at run time.
-fn check(t: &Table) {
+pub(crate) fn check(t: &Table) {
     let mut seen_vr = std::collections::BTreeSet::new();
     let mut seen_name = std::collections::BTreeSet::new();
     for v in &t.vars {
@@ -374,7 +381,10 @@ fn header_attrs(
             "generationTool",
             "SpurGearMesh modelDescription generator".into(),
         ),
-        ("variableNamingConvention", "flat".into()),
+        (
+            "variableNamingConvention",
+            t.model.naming.clone().unwrap_or_else(|| "flat".into()),
+        ),
     ]
 }
 
@@ -781,6 +791,15 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
     .unwrap();
     for v in &t.vars {
         writeln!(w, "            {} => Some(Var::{}),", v.vr, v.ident()).unwrap();
+    }
+    writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
+    writeln!(
+        w,
+        "    pub fn from_name(name: &str) -> Option<Var> {{\n        match name {{"
+    )
+    .unwrap();
+    for v in &t.vars {
+        writeln!(w, "            {:?} => Some(Var::{}),", v.name, v.ident()).unwrap();
     }
     writeln!(w, "            _ => None,\n        }}\n    }}").unwrap();
     writeln!(

@@ -87,42 +87,14 @@ pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
     o.w_A = r.w_a;
     o.w_B = r.w_b;
     o.dte = r.dte;
-    o.F_f1 = r.mesh.pair_force[0];
-    o.F_f2 = r.mesh.pair_force[1];
-    o.F_b1 = r.mesh.pair_force[2];
-    o.F_b2 = r.mesh.pair_force[3];
-    o.F_fwd = r.mesh.flank_force[0];
-    o.F_bwd = r.mesh.flank_force[1];
-    o.n_fwd = r.mesh.flank_pairs[0] as i32;
-    o.n_bwd = r.mesh.flank_pairs[1] as i32;
-    o.tau_mesh_A = r.mesh.tq_a;
-    o.tau_mesh_B = r.mesh.tq_b;
     o.P_loss = r.p_loss;
-    o.s_f1 = r.mesh.contact_point[0];
-    o.s_f2 = r.mesh.contact_point[1];
-    o.s_b1 = r.mesh.contact_point[2];
-    o.s_b2 = r.mesh.contact_point[3];
     o.W_ext = r.w_ext;
     o.W_loss = r.w_loss;
     o.E_gate = r.e_gate;
     o.n_events = saturate(r.n_events);
     o.n_impacts = saturate(r.n_impacts);
     o.x_slider = r.x_slider;
-    o.F_B_x = r.mesh.force_on_b[0];
-    o.F_B_y = r.mesh.force_on_b[1];
-    o.k_mesh = r.mesh.k_mesh;
-    o.load_share = if r.mesh.flank_force[0] != 0.0 {
-        r.mesh.pair_force[0] / r.mesh.flank_force[0]
-    } else {
-        0.0
-    };
-    o.dte_mean = run.dte_mean;
-    o.dte_rms = run.dte_rms;
-    o.dte_min = run.dte_min;
-    o.dte_max = run.dte_max;
-    o.F_max = run.f_max;
-    o.t_separated = run.t_separated;
-    o.t_backward = run.t_backward;
+    o.set_mesh(&r.mesh, run);
     o.n_steps = saturate(st.steps);
     o.n_rejected_steps = saturate(st.rejected);
     o.n_rhs_evaluations = saturate(st.rhs_evals);
@@ -132,18 +104,5 @@ pub fn assemble(r: &Readout, run: &Summary, st: &Stats, o: &mut Outputs) {
 
 /// The calculated parameters: the pair's geometry.
 pub fn calculated(mesh: &PaperRig) -> Calculated {
-    let g = &mesh.geo;
-    Calculated {
-        alpha_w: g.alpha_w,
-        rAb: g.r_ab,
-        rBb: g.r_bb,
-        line_of_action: g.l,
-        s_a: g.s_a,
-        s_b: g.s_b,
-        contact_ratio: g.eps,
-        r_tipA: g.r_tip_a,
-        r_tipB: g.r_tip_b,
-        base_pitch: g.p_b,
-        contact_objects_per_flank: g.m_c as i32,
-    }
+    Calculated::of_geometry(&mesh.geo)
 }

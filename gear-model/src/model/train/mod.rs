@@ -93,7 +93,7 @@ pub struct Train {
     pub loads: TrainLoads,
     pub e_gate: f64,
     pub n_events: u64,
-    pub(crate) e_start: f64,
+    pub e_start: f64,
     /// Each mesh's statistics (parameter `statistics`).
     pub stats: Option<Vec<Statistics>>,
 }

@@ -150,7 +150,7 @@ pub struct PaperRig {
     pub e_gate: f64,
     pub n_events: u64,
     pub n_impacts: u64,
-    pub(crate) e_start: f64,
+    pub e_start: f64,
     /// The run's statistics up to the driver's last observation (parameter `statistics`).
     pub stats: Option<Statistics>,
     /// Interpolated inputs, if the master gave input derivatives.

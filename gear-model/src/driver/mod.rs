@@ -580,7 +580,7 @@ pub struct Driver<S: System> {
     pub cap: WorkCap,
     /// Never step past this time (the experiment's stop time, if any).
     pub t_stop: f64,
-    pub(crate) y_start: S::State,
+    pub y_start: S::State,
     /// `System::max_step` as last computed: it costs a contact-law evaluation, and the limits it
     /// holds (stiffness, contact speed) change slowly, so it is renewed at restarts and every
     /// `STEP_LIMIT_AGE` accepted steps. NaN: not computed yet.

@@ -1,0 +1,154 @@
+//! From the train's FMI parameters to the model: the train's specification (bodies, shafts,
+//! meshes in use, each mesh's pair parameters as a single-mesh `Params`) and its loads.
+
+use crate::variables::{Inputs, Params, Var, VarInfo, VARIABLES};
+use gear_model::model::mesh::Coefficients;
+use gear_model::model::train::{Body, MeshPlace, Shaft, TrainLoads, TrainSpec};
+use gear_model::variables as single;
+
+/// A train variable by its structured name (all of them exist: the table is generated).
+pub fn var(name: &str) -> Var {
+    Var::from_name(name).unwrap_or_else(|| panic!("no variable {name}"))
+}
+
+fn real(p: &Params, name: &str) -> f64 {
+    p.get_real(var(name)).expect("a Real parameter")
+}
+
+fn int(p: &Params, name: &str) -> i32 {
+    p.get_integer(var(name)).expect("an Integer parameter")
+}
+
+/// Checks every parameter on its own, as the single mesh does: finite, and within the table's
+/// range. How they fit together (a tree, the geometry) is checked when the train is built.
+pub fn validate(p: &Params) -> Result<(), String> {
+    for info in VARIABLES {
+        if let Some(x) = p.get_real(info.var) {
+            if !x.is_finite() {
+                return Err(format!("parameter {} = {x}: must be finite", info.name));
+            }
+        }
+        let x = match (p.get_real(info.var), p.get_integer(info.var)) {
+            (Some(x), _) => x,
+            (None, Some(i)) => i as f64,
+            _ => continue,
+        };
+        if !applies(info, p) {
+            continue;
+        }
+        if let Some(why) = info.range.violation(x) {
+            return Err(format!("parameter {} = {x}: {why}", info.name));
+        }
+    }
+    Ok(())
+}
+
+/// A geometry front end's own parameter is checked only when that front end is used.
+fn applies(info: &VarInfo, p: &Params) -> bool {
+    match (info.geometry, element(info.name)) {
+        (Some(g), Some(("mesh", m, _))) => int(p, &format!("mesh[{m}].geometry")) == g,
+        _ => true,
+    }
+}
+
+/// `mesh[2].zA` -> ("mesh", 2, "zA").
+pub fn element(name: &str) -> Option<(&str, usize, &str)> {
+    let (kind, rest) = name.split_once('[')?;
+    let (index, field) = rest.split_once("].")?;
+    Some((kind, index.parse().ok()?, field))
+}
+
+/// Mesh m's pair parameters (1-based) as the single mesh's: every single-mesh parameter the
+/// train has as `mesh[m].<name>`; the others (the rig's) keep their defaults.
+pub fn mesh_params(p: &Params, m: usize) -> single::Params {
+    let mut s = single::Params::default();
+    for info in single::VARIABLES {
+        let Some(v) = Var::from_name(&format!("mesh[{m}].{}", info.name)) else {
+            continue;
+        };
+        let set = if let Some(x) = p.get_real(v) {
+            s.set_real(info.var, x)
+        } else if let Some(x) = p.get_integer(v) {
+            s.set_integer(info.var, x)
+        } else if let Some(x) = p.get_boolean(v) {
+            s.set_boolean(info.var, x)
+        } else if let Some(x) = p.get_string(v) {
+            s.set_string(info.var, x.to_owned())
+        } else {
+            false
+        };
+        debug_assert!(set, "{} is a parameter of both tables", info.name);
+    }
+    s
+}
+
+/// The train the parameters describe (indices checked against the counts here; the tree and
+/// each mesh's parameters when the train is built).
+pub fn spec(p: &Params) -> Result<TrainSpec, String> {
+    let (nb, ns, nm) = (
+        p.n_bodies as usize,
+        p.n_shafts as usize,
+        p.n_meshes as usize,
+    );
+    let body_index = |name: String| -> Result<usize, String> {
+        let i = int(p, &name);
+        if i < 1 || i as usize > nb {
+            return Err(format!(
+                "parameter {name} = {i}: no such body (n_bodies = {nb})"
+            ));
+        }
+        Ok(i as usize - 1)
+    };
+    let bodies = (1..=nb)
+        .map(|i| Body {
+            j: real(p, &format!("body[{i}].J")),
+            c: real(p, &format!("body[{i}].c")),
+            w_start: real(p, &format!("body[{i}].w_start")),
+        })
+        .collect();
+    let mut shafts = Vec::with_capacity(ns);
+    for j in 1..=ns {
+        shafts.push(Shaft {
+            a: body_index(format!("shaft[{j}].a"))?,
+            b: body_index(format!("shaft[{j}].b"))?,
+            k: real(p, &format!("shaft[{j}].k")),
+            d: real(p, &format!("shaft[{j}].d")),
+            twist_start: real(p, &format!("shaft[{j}].twist_start")),
+        });
+    }
+    let mut meshes = Vec::with_capacity(nm);
+    for m in 1..=nm {
+        meshes.push(MeshPlace {
+            a: body_index(format!("mesh[{m}].A"))?,
+            b: body_index(format!("mesh[{m}].B"))?,
+            center_angle: real(p, &format!("mesh[{m}].center_angle")),
+            mount_a: real(p, &format!("mesh[{m}].mount_A")),
+            mount_b: real(p, &format!("mesh[{m}].mount_B")),
+            params: mesh_params(p, m),
+        });
+    }
+    Ok(TrainSpec {
+        bodies,
+        angle_start: p.body_1_angle_start,
+        shafts,
+        meshes,
+    })
+}
+
+/// The bodies' torques and the meshes' tunable coefficients.
+pub fn loads(p: &Params, i: &Inputs) -> TrainLoads {
+    let tau = (1..=p.n_bodies as usize)
+        .map(|k| {
+            i.get_real(var(&format!("body[{k}].tau")))
+                .expect("an input")
+        })
+        .collect();
+    let coef = (1..=p.n_meshes as usize)
+        .map(|m| Coefficients {
+            chi: real(p, &format!("mesh[{m}].chi")),
+            mu: real(p, &format!("mesh[{m}].mu")),
+            v_reg: real(p, &format!("mesh[{m}].v_reg")),
+        })
+        .collect();
+    TrainLoads { tau, coef }
+}
