@@ -10,8 +10,9 @@ echo "== the diffsol peer benchmark compiles (docs/integrators.md; its own works
 cargo check -q --all-targets --manifest-path benches/diffsol-peer/Cargo.toml --target-dir target/diffsol-peer
 echo "== the API documentation builds without warnings (units in brackets are not links)"
 RUSTDOCFLAGS="-D warnings" cargo doc -q --workspace --no-deps
-echo "== package the FMU"
+echo "== package the FMUs"
 cargo run -q -p fmu-packaging --release
+cargo run -q -p fmu-packaging --release --bin package-train
 echo "== memcheck of the C API (valgrind)"
 bash tools/reliability.sh
 echo "== FMU tests through FMPy"

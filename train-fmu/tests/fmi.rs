@@ -1,0 +1,383 @@
+//! SpurGearTrain through its exported C functions, in-process (the test links the crate's rlib:
+//! the same symbols as the .so): bad input is refused with messages naming the elements,
+//! instances on many threads give identical answers, FMU states round-trip through their bytes,
+//! and random call sequences never crash, never return NaN and never let a panic out.
+#![allow(non_snake_case)]
+
+use fmi2_slave::{CallbackFunctions, Component, LoggerFn, Status};
+use proptest::prelude::*;
+use spur_gear_train::exports::*;
+use spur_gear_train::instance::vr_of;
+use spur_gear_train::variables::GUID;
+use std::ffi::{CStr, CString};
+use std::os::raw::{c_char, c_int, c_void};
+use std::sync::Mutex;
+
+/// The messages an instance logged.
+#[derive(Default)]
+struct Sink(Mutex<Vec<(c_int, String)>>);
+
+/// The logger without the variadic tail: the FMU passes no variadic arguments, and on x86-64
+/// System V such a call is ABI-compatible with this function (tests/fmi_support does the same).
+unsafe extern "C" fn logger(
+    env: *mut c_void,
+    _instance: *const c_char,
+    status: c_int,
+    _category: *const c_char,
+    message: *const c_char,
+) {
+    let sink = &*(env as *const Sink);
+    let text = CStr::from_ptr(message).to_string_lossy().into_owned();
+    sink.0.lock().unwrap().push((status, text));
+}
+
+struct Fmu {
+    c: Component,
+    sink: Box<Sink>,
+    _callbacks: Box<CallbackFunctions>,
+}
+
+impl Fmu {
+    fn new() -> Fmu {
+        let sink = Box::new(Sink::default());
+        let callbacks = Box::new(CallbackFunctions {
+            logger: Some(unsafe {
+                std::mem::transmute::<
+                    unsafe extern "C" fn(
+                        *mut c_void,
+                        *const c_char,
+                        c_int,
+                        *const c_char,
+                        *const c_char,
+                    ),
+                    LoggerFn,
+                >(logger)
+            }),
+            allocate_memory: None,
+            free_memory: None,
+            step_finished: None,
+            component_environment: &*sink as *const Sink as *mut c_void,
+        });
+        let name = CString::new("train").unwrap();
+        let guid = CString::new(GUID).unwrap();
+        let c = unsafe {
+            fmi2Instantiate(
+                name.as_ptr(),
+                1,
+                guid.as_ptr(),
+                std::ptr::null(),
+                &*callbacks,
+                0,
+                1,
+            )
+        };
+        assert!(!c.is_null());
+        Fmu {
+            c,
+            sink,
+            _callbacks: callbacks,
+        }
+    }
+
+    fn set_real(&self, name: &str, x: f64) -> Status {
+        unsafe { fmi2SetReal(self.c, &vr_of(name), 1, &x) }
+    }
+    fn set_int(&self, name: &str, x: i32) -> Status {
+        unsafe { fmi2SetInteger(self.c, &vr_of(name), 1, &x) }
+    }
+    fn real(&self, name: &str) -> f64 {
+        let mut x = f64::NAN;
+        assert_eq!(
+            unsafe { fmi2GetReal(self.c, &vr_of(name), 1, &mut x) },
+            Status::Ok
+        );
+        x
+    }
+    fn init(&self, stop: f64) -> Status {
+        unsafe {
+            assert_eq!(
+                fmi2SetupExperiment(self.c, 0, 0.0, 0.0, 1, stop),
+                Status::Ok
+            );
+            assert_eq!(fmi2EnterInitializationMode(self.c), Status::Ok);
+            fmi2ExitInitializationMode(self.c)
+        }
+    }
+    fn step(&self, t: f64, h: f64) -> Status {
+        unsafe { fmi2DoStep(self.c, t, h, 1) }
+    }
+    fn errors(&self) -> Vec<String> {
+        let log = self.sink.0.lock().unwrap();
+        log.iter()
+            .filter(|(s, _)| *s == Status::Error as c_int)
+            .map(|(_, m)| m.clone())
+            .collect()
+    }
+}
+
+impl Drop for Fmu {
+    fn drop(&mut self) {
+        unsafe { fmi2FreeInstance(self.c) }
+    }
+}
+
+/// Each broken train is refused at fmi2ExitInitializationMode with fmi2Error, its message
+/// naming the elements at fault.
+#[test]
+fn broken_trains_are_refused_with_the_elements_named() {
+    let cases: Vec<(&str, Box<dyn Fn(&Fmu)>, &str)> = vec![
+        (
+            "cycle",
+            Box::new(|f: &Fmu| {
+                f.set_int("n_meshes", 3);
+                f.set_int("mesh[3].A", 4);
+                f.set_int("mesh[3].B", 1);
+            }),
+            "closes a cycle",
+        ),
+        (
+            "disconnected",
+            Box::new(|f: &Fmu| {
+                f.set_int("n_bodies", 5);
+            }),
+            "body[5]",
+        ),
+        (
+            "index",
+            Box::new(|f: &Fmu| {
+                f.set_int("mesh[2].B", 6);
+            }),
+            "mesh[2].B = 6",
+        ),
+        (
+            "A = B",
+            Box::new(|f: &Fmu| {
+                f.set_int("mesh[2].B", 3);
+            }),
+            "mesh[2]: A = B = 3",
+        ),
+        (
+            "rigid",
+            Box::new(|f: &Fmu| {
+                f.set_int("mesh[1].contact_model", 2);
+            }),
+            "mesh[1].contact_model = 2",
+        ),
+        (
+            "a mesh's geometry",
+            Box::new(|f: &Fmu| {
+                f.set_int("mesh[2].zA", 23);
+            }),
+            "mesh[2]:",
+        ),
+    ];
+    for (what, setup, expected) in cases {
+        let f = Fmu::new();
+        setup(&f);
+        assert_eq!(f.init(0.1), Status::Error, "{what}");
+        let errors = f.errors();
+        assert!(
+            errors.iter().any(|e| e.contains(expected)),
+            "{what}: {errors:?}"
+        );
+    }
+    // A count above capacity and a NaN are refused when set, naming the variable.
+    for (set, expected) in [
+        (
+            Box::new(|f: &Fmu| f.set_int("n_meshes", 7)) as Box<dyn Fn(&Fmu) -> Status>,
+            "n_meshes = 7",
+        ),
+        (
+            Box::new(|f: &Fmu| f.set_real("body[2].J", f64::NAN)),
+            "body[2].J = NaN",
+        ),
+        (
+            Box::new(|f: &Fmu| f.set_real("shaft[1].k", -1.0)),
+            "shaft[1].k = -1",
+        ),
+    ] {
+        let f = Fmu::new();
+        assert_eq!(set(&f), Status::Error, "{expected}");
+        let errors = f.errors().join("\n");
+        assert!(errors.contains(expected), "{errors}");
+    }
+}
+
+fn run_default(steps: usize) -> Vec<f64> {
+    let f = Fmu::new();
+    assert_eq!(f.init(1.0), Status::Ok);
+    let h = 1e-4;
+    let mut out = Vec::new();
+    for k in 0..steps {
+        assert_eq!(f.step(k as f64 * h, h), Status::Ok);
+        out.extend(["mesh[1].dte", "mesh[2].dte", "shaft[1].tau", "body[4].w"].map(|n| f.real(n)));
+    }
+    out
+}
+
+/// Instances share nothing: four on four threads give the sequential run's numbers bit for bit.
+#[test]
+fn instances_on_threads_agree_bit_for_bit() {
+    let sequential = run_default(200);
+    let handles: Vec<_> = (0..4)
+        .map(|_| std::thread::spawn(|| run_default(200)))
+        .collect();
+    for h in handles {
+        assert_eq!(h.join().unwrap(), sequential);
+    }
+}
+
+/// An FMU state serialized, deserialized into another instance and set there continues exactly
+/// as the original.
+#[test]
+fn fmu_states_round_trip_through_their_bytes() {
+    let (a, b) = (Fmu::new(), Fmu::new());
+    assert_eq!(a.init(1.0), Status::Ok);
+    assert_eq!(b.init(1.0), Status::Ok);
+    let h = 1e-4;
+    for k in 0..50 {
+        assert_eq!(a.step(k as f64 * h, h), Status::Ok);
+    }
+    unsafe {
+        let mut s: *mut c_void = std::ptr::null_mut();
+        assert_eq!(fmi2GetFMUstate(a.c, &mut s), Status::Ok);
+        let mut size = 0usize;
+        assert_eq!(fmi2SerializedFMUstateSize(a.c, s, &mut size), Status::Ok);
+        let mut bytes = vec![0 as c_char; size];
+        assert_eq!(
+            fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size),
+            Status::Ok
+        );
+        let mut t: *mut c_void = std::ptr::null_mut();
+        let st = fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut t);
+        assert_eq!(st, Status::Ok, "{:?}", b.errors());
+        assert_eq!(fmi2SetFMUstate(b.c, t), Status::Ok);
+        // A corrupted blob is refused (by a third instance: the failure is fmi2Error).
+        bytes[size / 2] ^= 0x55;
+        let c = Fmu::new();
+        let mut u: *mut c_void = std::ptr::null_mut();
+        assert_ne!(
+            fmi2DeSerializeFMUstate(c.c, bytes.as_ptr(), size, &mut u),
+            Status::Ok
+        );
+        fmi2FreeFMUstate(a.c, &mut s);
+        fmi2FreeFMUstate(b.c, &mut t);
+    }
+    for k in 50..150 {
+        assert_eq!(a.step(k as f64 * h, h), Status::Ok, "{:?}", a.errors());
+        assert_eq!(b.step(k as f64 * h, h), Status::Ok, "{:?}", b.errors());
+        for n in ["mesh[1].dte", "mesh[2].F_fwd", "body[3].w", "E_el"] {
+            assert_eq!(a.real(n).to_bits(), b.real(n).to_bits(), "{n} at step {k}");
+        }
+    }
+}
+
+/// One call of a random sequence.
+#[derive(Clone, Debug)]
+enum Call {
+    SetReal(&'static str, f64),
+    SetInt(&'static str, i32),
+    Init,
+    Step(f64),
+    Get(&'static str),
+    Reset,
+}
+
+fn call() -> impl Strategy<Value = Call> {
+    let reals = prop::sample::select(vec![
+        "body[1].J",
+        "body[2].c",
+        "body[1].tau",
+        "body[4].tau",
+        "shaft[1].k",
+        "shaft[1].d",
+        "mesh[1].chi",
+        "mesh[2].mu",
+        "mesh[1].backlash",
+        "mesh[2].dte_start",
+        "body[1].w_start",
+        "mesh[2].center_angle",
+    ]);
+    let ints = prop::sample::select(vec![
+        "n_bodies",
+        "n_shafts",
+        "n_meshes",
+        "mesh[1].A",
+        "mesh[2].B",
+        "shaft[1].a",
+        "mesh[1].contact_model",
+        "mesh[2].zA",
+        "solver",
+    ]);
+    let outputs = prop::sample::select(vec![
+        "mesh[1].dte",
+        "mesh[2].F_fwd",
+        "shaft[1].tau",
+        "body[3].w",
+        "energy_residual",
+        "mesh[6].dte",
+        "body[8].theta",
+    ]);
+    let value = prop_oneof![
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(-1.0),
+        Just(0.0),
+        -1e3..1e3f64,
+        1e-6..1e6f64,
+    ];
+    prop_oneof![
+        (reals, value).prop_map(|(n, x)| Call::SetReal(n, x)),
+        (ints, -2..10i32).prop_map(|(n, x)| Call::SetInt(n, x)),
+        Just(Call::Init),
+        prop_oneof![Just(-1e-4), Just(0.0), Just(f64::NAN), 1e-6..2e-3f64].prop_map(Call::Step),
+        outputs.prop_map(Call::Get),
+        Just(Call::Reset),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Whatever the sequence: statuses are Ok, Warning, Discard or Error, never a crash or a
+    /// panic across the boundary, and a value read with fmi2OK is finite.
+    #[test]
+    fn random_call_sequences_never_crash(calls in prop::collection::vec(call(), 1..25)) {
+        let f = Fmu::new();
+        let mut t = 0.0;
+        for c in calls {
+            let status = match c {
+                Call::SetReal(n, x) => f.set_real(n, x),
+                Call::SetInt(n, x) => f.set_int(n, x),
+                Call::Init => {
+                    t = 0.0;
+                    unsafe {
+                        fmi2SetupExperiment(f.c, 0, 0.0, 0.0, 0, 0.0);
+                        fmi2EnterInitializationMode(f.c);
+                        fmi2ExitInitializationMode(f.c)
+                    }
+                }
+                Call::Step(h) => {
+                    let s = f.step(t, h);
+                    if s == Status::Ok {
+                        t += h;
+                    }
+                    s
+                }
+                Call::Get(n) => {
+                    let mut x = 0.0;
+                    let s = unsafe { fmi2GetReal(f.c, &vr_of(n), 1, &mut x) };
+                    if s == Status::Ok {
+                        prop_assert!(x.is_finite(), "{n} = {x}");
+                    }
+                    s
+                }
+                Call::Reset => {
+                    t = 0.0;
+                    unsafe { fmi2Reset(f.c) }
+                }
+            };
+            prop_assert!(matches!(status, Status::Ok | Status::Warning | Status::Discard | Status::Error), "{status:?}");
+        }
+    }
+}
