@@ -125,7 +125,8 @@ impl Drop for Fmu {
 /// naming the elements at fault.
 #[test]
 fn broken_trains_are_refused_with_the_elements_named() {
-    let cases: Vec<(&str, Box<dyn Fn(&Fmu)>, &str)> = vec![
+    type Setup = Box<dyn Fn(&Fmu)>;
+    let cases: Vec<(&str, Setup, &str)> = vec![
         (
             "cycle",
             Box::new(|f: &Fmu| {
