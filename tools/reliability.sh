@@ -5,6 +5,7 @@
 # .venv) and loading binaries/linux64/SpurGearMesh.so from the .fmu with dlopen.
 #
 # Usage: bash tools/reliability.sh [steps]      (default 20000 communication steps of 1e-4 s; ~20 s)
+# SpurGearTrain then runs steps/4 steps of two instances (tests/c/train_memcheck.c) the same way.
 # Called by tools/test-all.sh after packaging. Needs gcc and valgrind (installed with apt-get
 # if missing and possible).
 set -euo pipefail
@@ -59,3 +60,29 @@ valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite
   --errors-for-leak-kinds=definite,indirect --track-origins=yes \
   "$work/fmi_memcheck" "$so" "$guid" "$steps"
 echo "== valgrind: no memory errors, no definite or indirect leaks"
+
+echo "== SpurGearTrain: package, compile tests/c/train_memcheck.c"
+train=$(cargo run -q -p fmu-packaging --release --bin package-train | tail -n 1)
+[ -f "$train" ] || { echo "reliability.sh: package-train printed '$train'" >&2; exit 1; }
+args=$("$py" - "$train" "$work" <<'EOF'
+import sys, zipfile, xml.etree.ElementTree as ET
+fmu, work = sys.argv[1], sys.argv[2]
+z = zipfile.ZipFile(fmu)
+z.extract("binaries/linux64/SpurGearTrain.so", work)
+md = ET.fromstring(z.read("modelDescription.xml"))
+vr = {v.get("name"): v.get("valueReference") for v in md.iter("ScalarVariable")}
+print(md.get("guid"), vr["mesh[1].dte"], vr["body[4].tau"], vr["n_bodies"])
+EOF
+)
+gcc -std=c99 -g -O1 -Wall -Wextra -Werror -I"$inc" tests/c/train_memcheck.c -ldl -lm -o "$work/train_memcheck"
+# shellcheck disable=SC2086
+set -- $args
+tso="$work/binaries/linux64/SpurGearTrain.so"
+tsteps=$((steps / 4))
+echo "== SpurGearTrain: $tsteps steps natively"
+"$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4"
+echo "== SpurGearTrain: $tsteps steps under valgrind (memcheck)"
+valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite,indirect \
+  --errors-for-leak-kinds=definite,indirect --track-origins=yes \
+  "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4"
+echo "== valgrind (SpurGearTrain): no memory errors, no definite or indirect leaks"
