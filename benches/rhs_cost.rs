@@ -7,9 +7,15 @@
 //! Also `PaperRig::rhs` of the paper rig's scenes (paper-m2 and damped: Johnson, no friction) over one
 //! base pitch, the cost per evaluation behind the floors in docs/integrators.md.
 //!
+//! And the gear train's right-hand side (issue 23, point 6): a chain of n paper meshes
+//! (n = 1, 2, 4, 6) against n times the paper rig's, interleaved in the same process. The
+//! train's own work (walking the tree for the bodies' angles and speeds, the torques on the
+//! bodies) comes on top of the meshes'.
+//!
 //! Run: `cargo bench --bench rhs_cost`.
 
 use spur_gear_mesh::model::paper_rig::{DTE, THETA_A};
+use spur_gear_mesh::model::train::{self, Body, MeshPlace, Train, TrainSpec};
 use spur_gear_mesh::model::{PaperRig, State, NY};
 use spur_gear_mesh::variables::{Inputs, Params};
 use std::hint::black_box;
@@ -80,6 +86,64 @@ fn paper_setup(chi: f64) -> (PaperRig, Vec<State>) {
     (mesh, states)
 }
 
+/// A chain of n damped paper meshes on n + 1 bodies (each at the damped scene's quasi-static
+/// penetration), at 64 positions of body 1 over one base pitch of mesh 1.
+fn train_setup(n: usize) -> (Train, Vec<train::State>) {
+    let delta = 5.592370531367129e-7;
+    let pair = Params {
+        chi: 10.0,
+        dte_start: delta,
+        ..Params::default()
+    };
+    let bodies = (0..=n)
+        .map(|i| Body {
+            j: if i == 0 { 0.4 } else { 2.0 },
+            c: if i == n { 2.0 } else { 0.0 },
+            w_start: 100.0 / 1.5f64.powi(i as i32),
+        })
+        .collect();
+    let meshes = (0..n)
+        .map(|m| MeshPlace {
+            a: m,
+            b: m + 1,
+            center_angle: 0.0,
+            mount_a: 0.0,
+            mount_b: 0.0,
+            params: pair.clone(),
+        })
+        .collect();
+    let spec = TrainSpec {
+        bodies,
+        angle_start: 0.0,
+        shafts: vec![],
+        meshes,
+    };
+    let mut tau = vec![0.0; n + 1];
+    tau[0] = 100.0;
+    let (t, y0) = Train::new(spec, tau, None).unwrap();
+    let g = t.meshes[0].geo.clone();
+    let states = (0..64)
+        .map(|k| {
+            let mut y = y0;
+            y[train::THETA_1] += k as f64 / 64.0 * g.p_b / g.r_ab;
+            y
+        })
+        .collect();
+    (t, states)
+}
+
+fn time_train(t: &Train, states: &[train::State], reps: usize) -> f64 {
+    let mut dy = [0.0; train::NY];
+    let start = Instant::now();
+    for _ in 0..reps {
+        for y in states {
+            t.rhs(black_box(y), &mut dy).unwrap();
+            black_box(&dy);
+        }
+    }
+    start.elapsed().as_secs_f64() * 1e9 / (reps * states.len()) as f64
+}
+
 fn time(mesh: &PaperRig, states: &[State], reps: usize) -> f64 {
     let mut dy = [0.0; NY];
     let start = Instant::now();
@@ -129,4 +193,22 @@ fn main() {
         median(tu),
         median(td)
     );
+    println!("Train::rhs, a chain of n damped paper meshes, against n x PaperRig::rhs (damped), 41 interleaved repetitions:");
+    for n in [1, 2, 4, 6] {
+        let (t, st) = train_setup(n);
+        let (mut tt, mut ratio) = (Vec::new(), Vec::new());
+        for _ in 0..41 {
+            let single = time(&md, &sd, 1000);
+            let whole = time_train(&t, &st, 1000);
+            tt.push(whole);
+            ratio.push(whole / (n as f64 * single));
+        }
+        println!(
+            "  n = {n}: {:.1} ns, train / (n x single) = {:.2} (median; min {:.2}, max {:.2})",
+            median(tt),
+            median(ratio.clone()),
+            ratio.iter().cloned().fold(f64::INFINITY, f64::min),
+            ratio.iter().cloned().fold(0.0, f64::max)
+        );
+    }
 }

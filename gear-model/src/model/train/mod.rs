@@ -13,7 +13,7 @@ pub mod topology;
 
 use super::contact::{EventFn, N_EVENTS};
 use super::geometry::Geometry;
-use super::mesh::{self, EventReport, GearMesh, Kin, LawOutOfRange, MeshLoad};
+use super::mesh::{self, EventReport, GearMesh, Kin, LawOutOfRange};
 use super::statistics::Statistics;
 use super::ModelError;
 use serde::{Deserialize, Serialize};
@@ -55,6 +55,21 @@ pub struct TrainConfig {
     shaft_step: Vec<usize>,
     /// Absolute start angles of the bodies [rad] (gear-train.md §4).
     pub psi_start: Vec<f64>,
+    /// Each walk step as a linear map (`Link`), and the bodies' reciprocal inertias: the
+    /// right-hand side multiplies where it would divide (benches/rhs_cost.rs).
+    links: Vec<Link>,
+    inv_j: Vec<f64>,
+}
+
+/// A walk step: theta_to = ratio theta_from + gain (q - offset), and the same for the speeds
+/// with the coordinate's rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Link {
+    from: usize,
+    to: usize,
+    ratio: f64,
+    gain: f64,
+    offset: f64,
 }
 
 impl Default for TrainConfig {
@@ -73,6 +88,8 @@ impl Default for TrainConfig {
             mesh_step: vec![],
             shaft_step: vec![],
             psi_start: vec![],
+            links: vec![],
+            inv_j: vec![],
         }
     }
 }
@@ -152,12 +169,40 @@ impl Train {
         let n_meshes = spec.meshes.len();
         let mut y = [0.0; NY];
         y[W_1] = spec.bodies[0].w_start;
+        let links = tree
+            .steps
+            .iter()
+            .map(|st| {
+                let (ratio, gain, offset) = match st.edge {
+                    Edge::Mesh(m) => {
+                        let (g, dte) = (&meshes[m].geo, spec.meshes[m].params.dte_start);
+                        if st.from == spec.meshes[m].a {
+                            (g.r_ab / g.r_bb, -1.0 / g.r_bb, dte)
+                        } else {
+                            (g.r_bb / g.r_ab, 1.0 / g.r_ab, dte)
+                        }
+                    }
+                    Edge::Shaft(j) if st.from == spec.shafts[j].a => (1.0, -1.0, 0.0),
+                    Edge::Shaft(_) => (1.0, 1.0, 0.0),
+                };
+                Link {
+                    from: st.from,
+                    to: st.to,
+                    ratio,
+                    gain,
+                    offset,
+                }
+            })
+            .collect();
+        let inv_j = spec.bodies.iter().map(|b| 1.0 / b.j).collect();
         let cfg = TrainConfig {
             spec,
             tree,
             mesh_step,
             shaft_step,
             psi_start: start.psi,
+            links,
+            inv_j,
         };
         let mut train = Train {
             cfg: Arc::new(cfg),
@@ -216,35 +261,13 @@ impl Train {
     /// The bodies' angles and speeds: body 1's from the state, the others along the tree.
     #[inline]
     pub fn bodies(&self, y: &State) -> Bodies {
-        let c = &*self.cfg;
         let mut b = Bodies::default();
         b.theta[0] = y[THETA_1];
         b.w[0] = y[W_1];
-        for (k, step) in c.tree.steps.iter().enumerate() {
+        for (k, l) in self.cfg.links.iter().enumerate() {
             let (q, dq) = (y[edge_index(k)], y[edge_index(k) + 1]);
-            let (from, to) = (step.from, step.to);
-            match step.edge {
-                Edge::Mesh(m) => {
-                    let (mp, g) = (&c.spec.meshes[m], &self.meshes[m].geo);
-                    let e = q - mp.params.dte_start;
-                    if from == mp.a {
-                        b.theta[to] = (g.r_ab * b.theta[from] - e) / g.r_bb;
-                        b.w[to] = (g.r_ab * b.w[from] - dq) / g.r_bb;
-                    } else {
-                        b.theta[to] = (g.r_bb * b.theta[from] + e) / g.r_ab;
-                        b.w[to] = (g.r_bb * b.w[from] + dq) / g.r_ab;
-                    }
-                }
-                Edge::Shaft(j) => {
-                    if from == c.spec.shafts[j].a {
-                        b.theta[to] = b.theta[from] - q;
-                        b.w[to] = b.w[from] - dq;
-                    } else {
-                        b.theta[to] = b.theta[from] + q;
-                        b.w[to] = b.w[from] + dq;
-                    }
-                }
-            }
+            b.theta[l.to] = l.ratio * b.theta[l.from] + l.gain * (q - l.offset);
+            b.w[l.to] = l.ratio * b.w[l.from] + l.gain * dq;
         }
         b
     }
@@ -264,25 +287,11 @@ impl Train {
         sh.k * (y[i] + sh.twist_start) + sh.d * y[i + 1]
     }
 
-    /// Every mesh's load at y.
-    fn mesh_loads(&self, y: &State, b: &Bodies) -> Result<[MeshLoad; MAX_MESHES], LawOutOfRange> {
-        let mut loads = [MeshLoad::default(); MAX_MESHES];
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            loads[m] = mesh.compliant_load(&self.kin(m, y, b), None)?;
-        }
-        Ok(loads)
-    }
-
-    /// Right-hand side with the current modes (gear-train.md §5).
+    /// Right-hand side with the current modes (gear-train.md §5): each mesh's torques go
+    /// straight onto its bodies.
     pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
-        let b = self.bodies(y);
-        let loads = self.mesh_loads(y, &b)?;
-        self.motion(y, &b, &loads, dy);
-        Ok(())
-    }
-
-    fn motion(&self, y: &State, b: &Bodies, loads: &[MeshLoad; MAX_MESHES], dy: &mut State) {
         let c = &*self.cfg;
+        let b = self.bodies(y);
         let n = c.spec.bodies.len();
         let mut torque = [0.0; MAX_BODIES];
         let (mut p_ext, mut p_loss) = (0.0, 0.0);
@@ -291,22 +300,23 @@ impl Train {
             torque[i] = tau - body.c * b.w[i];
             p_ext += tau * b.w[i] - body.c * b.w[i] * b.w[i];
         }
-        for (m, mp) in c.spec.meshes.iter().enumerate() {
-            torque[mp.a] += loads[m].tq_a;
-            torque[mp.b] += loads[m].tq_b;
-            p_ext += loads[m].p_param;
-            p_loss += loads[m].p_loss;
+        for (m, (mesh, mp)) in self.meshes.iter().zip(&c.spec.meshes).enumerate() {
+            let load = mesh.compliant_load(&self.kin(m, y, &b), None)?;
+            torque[mp.a] += load.tq_a;
+            torque[mp.b] += load.tq_b;
+            p_ext += load.p_param;
+            p_loss += load.p_loss;
         }
         for (j, sh) in c.spec.shafts.iter().enumerate() {
-            let t = self.shaft_torque(j, y);
+            let i = edge_index(c.shaft_step[j]);
+            let t = sh.k * (y[i] + sh.twist_start) + sh.d * y[i + 1];
             torque[sh.a] -= t;
             torque[sh.b] += t;
-            let rate = y[edge_index(c.shaft_step[j]) + 1];
-            p_loss += sh.d * rate * rate;
+            p_loss += sh.d * y[i + 1] * y[i + 1];
         }
         let mut acc = [0.0; MAX_BODIES];
-        for i in 0..n {
-            acc[i] = torque[i] / c.spec.bodies[i].j;
+        for (a, (t, inv_j)) in acc.iter_mut().zip(torque.iter().zip(&c.inv_j)).take(n) {
+            *a = t * inv_j;
         }
         dy[THETA_1] = y[W_1];
         dy[W_1] = acc[0];
@@ -323,6 +333,7 @@ impl Train {
                 Edge::Shaft(j) => acc[c.spec.shafts[j].a] - acc[c.spec.shafts[j].b],
             };
         }
+        Ok(())
     }
 
     /// The number of state components in use (a prefix of `State`).
