@@ -45,6 +45,16 @@ def fmu_path():
 
 
 @pytest.fixture(scope="session")
+def train_fmu_path():
+    """The gear-train FMU (SpurGearTrain.fmu), built from the working tree once per session like
+    fmu_path: `cargo run -q --release -p fmu-packaging --bin package-train`, which prints its path
+    (train_scene_compare.build_train_fmu)."""
+    import train_scene_compare
+
+    return train_scene_compare.build_train_fmu()
+
+
+@pytest.fixture(scope="session")
 def fmu3_path(fmu_path):
     """The FMI 3.0 FMU, which the packager writes beside the FMI 2.0 one."""
     path = fmu_path.parent / "SpurGearMesh-fmi3.fmu"
