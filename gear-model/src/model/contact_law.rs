@@ -8,7 +8,7 @@ pub trait ContactLaw {
     /// Elastic normal force \[N\] of one pair (whole face width) at penetration delta >= 0, its
     /// contact at s_A on the line of action.
     fn force(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
-    /// dF/d(delta) [N/m] at fixed s_A.
+    /// dF/d(delta) \[N/m\] at fixed s_A.
     fn stiffness(&self, delta: f64, s_a: f64) -> Result<f64, OutOfRange>;
     /// The same from the pair's elastic force F at delta, without solving the law again.
     fn stiffness_at_force(&self, force: f64, delta: f64, s_a: f64) -> f64;

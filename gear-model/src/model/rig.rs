@@ -9,7 +9,7 @@ use crate::variables::Params;
 /// B's bearing on the slider S: a spring along O_A O_B (small displacements, spec §3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Slider {
-    /// Stiffness k_S [N/m].
+    /// Stiffness k_S \[N/m\].
     pub k: f64,
     /// Damping c_S [N s/m].
     pub c: f64,
@@ -36,7 +36,7 @@ impl Slider {
         }))
     }
 
-    /// Natural frequency of the slider on its spring alone [rad/s].
+    /// Natural frequency of the slider on its spring alone \[rad/s\].
     pub fn frequency(&self) -> f64 {
         (self.k / self.m).sqrt()
     }

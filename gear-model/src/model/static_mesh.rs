@@ -13,7 +13,7 @@ pub struct StaticPoint {
     /// The shared penetration (the static transmission error) \[m\].
     pub delta: f64,
     pub pairs: usize,
-    /// W / delta and sum dF_i/d(delta) [N/m].
+    /// W / delta and sum dF_i/d(delta) \[N/m\].
     pub secant: f64,
     pub tangent: f64,
 }
@@ -106,7 +106,7 @@ pub fn balance_with(
 }
 
 /// The balance at n positions evenly over one mesh cycle (midpoints), and their means:
-/// (points, mean secant, mean tangent) [N/m].
+/// (points, mean secant, mean tangent) \[N/m\].
 pub fn cycle(law: &dyn ContactLaw, g: &Geometry, w: f64, n: usize) -> (Vec<StaticPoint>, f64, f64) {
     let points: Vec<StaticPoint> = (0..n)
         .map(|i| balance(law, g, g.s_a + g.p_b * (i as f64 + 0.5) / n as f64, w))

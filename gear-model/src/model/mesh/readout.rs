@@ -25,7 +25,7 @@ pub struct MeshReadout {
     pub p_loss: f64,
     /// The mesh force on B (x, y), paper frame.
     pub force_on_b: [f64; 2],
-    /// Tangent stiffness of the carrying pairs [N/m].
+    /// Tangent stiffness of the carrying pairs \[N/m\].
     pub k_mesh: f64,
 }
 
@@ -91,7 +91,7 @@ impl GearMesh {
         }
     }
 
-    /// Tangent stiffness [N/m] of the carrying compliant contacts, summed.
+    /// Tangent stiffness \[N/m\] of the carrying compliant contacts, summed.
     pub fn mesh_stiffness(&self, y: &Kin) -> f64 {
         let Some(law) = self.compliance() else {
             return 0.0;
@@ -143,7 +143,7 @@ impl GearMesh {
         }
     }
 
-    /// The penetration of one pair under the force `force` [N] along the line of action, and
+    /// The penetration of one pair under the force `force` \[N\] along the line of action, and
     /// the pairs' stiffness there: the scales of a mesh's error tolerances (1e-12 m floor).
     pub fn static_scale(&self, force: f64) -> (f64, f64) {
         let g = &self.geo;

@@ -468,7 +468,7 @@ impl PaperRig {
         }
     }
 
-    /// Bound on the highest natural frequency [rad/s]: the mesh stiffness times the reduced
+    /// Bound on the highest natural frequency \[rad/s\]: the mesh stiffness times the reduced
     /// inverse inertia along the line of action, plus the slider on its spring (the trace of
     /// the coupled system bounds its largest eigenvalue); 0 without contact or slider.
     pub fn vibration_frequency(&self, y: &State) -> f64 {

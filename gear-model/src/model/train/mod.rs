@@ -53,7 +53,7 @@ pub struct TrainConfig {
     /// The walk step of each mesh and shaft (its edge's place in the state).
     mesh_step: Vec<usize>,
     shaft_step: Vec<usize>,
-    /// Absolute start angles of the bodies [rad] (gear-train.md §4).
+    /// Absolute start angles of the bodies \[rad\] (gear-train.md §4).
     pub psi_start: Vec<f64>,
     /// Each walk step as a linear map (`Link`), and the bodies' reciprocal inertias: the
     /// right-hand side multiplies where it would divide (benches/rhs_cost.rs).
@@ -428,7 +428,7 @@ impl Train {
         self.loads = loads;
     }
 
-    /// Bound on the highest natural frequency [rad/s] (the trace of M^-1 K bounds its
+    /// Bound on the highest natural frequency \[rad/s\] (the trace of M^-1 K bounds its
     /// largest eigenvalue): the meshes' stiffness along their lines of action and the shafts'.
     pub fn vibration_frequency(&self, y: &State) -> f64 {
         let c = &*self.cfg;

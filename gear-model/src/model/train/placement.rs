@@ -36,7 +36,7 @@ fn nearest(x: f64, dz: f64, s: f64, beta: f64, mount: f64) -> (f64, i64) {
 /// The start of every body and mesh.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Start {
-    /// Absolute start angle of each body [rad].
+    /// Absolute start angle of each body \[rad\].
     pub psi: Vec<f64>,
     /// Each mesh's placement for the component.
     pub meshes: Vec<Placement>,

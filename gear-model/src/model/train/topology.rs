@@ -12,11 +12,11 @@ pub const MAX_MESHES: usize = 6;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Body {
-    /// Moment of inertia [kg m^2].
+    /// Moment of inertia \[kg m^2\].
     pub j: f64,
-    /// Viscous drag to the housing [N m s/rad].
+    /// Viscous drag to the housing \[N m s/rad\].
     pub c: f64,
-    /// Start speed, forward positive [rad/s].
+    /// Start speed, forward positive \[rad/s\].
     pub w_start: f64,
 }
 
@@ -36,7 +36,7 @@ pub struct MeshPlace {
     /// The bodies carrying gear A and gear B, 0-based.
     pub a: usize,
     pub b: usize,
-    /// Direction of O_A -> O_B in the housing frame [rad].
+    /// Direction of O_A -> O_B in the housing frame \[rad\].
     pub center_angle: f64,
     pub mount_a: f64,
     pub mount_b: f64,
@@ -47,7 +47,7 @@ pub struct MeshPlace {
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainSpec {
     pub bodies: Vec<Body>,
-    /// Body 1's absolute start angle [rad] (gear-train.md §4).
+    /// Body 1's absolute start angle \[rad\] (gear-train.md §4).
     pub angle_start: f64,
     pub shafts: Vec<Shaft>,
     pub meshes: Vec<MeshPlace>,
