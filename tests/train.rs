@@ -302,7 +302,7 @@ fn a_stiff_shaft_tends_to_one_body() {
     assert!(last <= 1e-3 * w_limit, "{last} vs {w_limit}");
 }
 
-/// Rigid contact and a broken tree are refused with the elements named.
+/// Rigid contact, a slider and a broken tree are refused with the elements named.
 #[test]
 fn rigid_contact_and_broken_trees_are_refused() {
     let mut spec = reducer(1e5);
@@ -310,6 +310,13 @@ fn rigid_contact_and_broken_trees_are_refused() {
     let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
     assert!(
         e.contains("mesh[2].contact_model = 2") && e.contains("rigid"),
+        "{e}"
+    );
+    let mut spec = reducer(1e5);
+    spec.meshes[0].params.slider_stiffness = 1e8;
+    let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
+    assert!(
+        e.contains("mesh[1].slider_stiffness") && e.contains("slider"),
         "{e}"
     );
     let mut spec = reducer(1e5);

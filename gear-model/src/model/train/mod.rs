@@ -139,6 +139,13 @@ impl Train {
                     name("contact_model")
                 )));
             }
+            if p.slider_stiffness != 0.0 {
+                return Err(ModelError::new(format!(
+                    "parameter {} = {}: the slider S is the two-wheel rig's (rig-and-modes.md §1); a train's housing holds every bearing",
+                    name("slider_stiffness"),
+                    p.slider_stiffness
+                )));
+            }
             let at = |e: ModelError| ModelError::new(format!("mesh[{}]: {}", m + 1, e.message));
             super::params::validate(p).map_err(at)?;
             geo.push(Geometry::new(p).map_err(at)?);
