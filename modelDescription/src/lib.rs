@@ -551,15 +551,14 @@ fn fmi3_type(ty: &str) -> &'static str {
     }
 }
 
-/// modelDescription.xml for FMI 3.0 (Co-Simulation and Model Exchange) from the same table:
-/// the same variables and value references, plus what FMI 3.0 declares as variables of its own,
-/// the independent variable `time` (value reference 0) and the event indicators.
+/// modelDescription.xml for FMI 3.0 (Co-Simulation, and Model Exchange if the table has it) from
+/// the same table: the same variables and value references, plus what FMI 3.0 declares as
+/// variables of its own, the independent variable `time` (value reference 0) and the event
+/// indicators.
 pub fn model_description_xml3(t: &Table, version: &str) -> String {
-    let me = t
-        .model
-        .model_exchange
-        .as_ref()
-        .expect("the FMI 3.0 description is written for Model Exchange too");
+    let me = t.model.model_exchange.as_ref();
+    let indicators: &[[String; 2]] = me.map_or(&[], |m| &m.event_indicators);
+    let indicator_vr0 = me.map_or(0, |m| m.event_indicator_vr);
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
     put(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));
@@ -570,9 +569,11 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
         ("canGetAndSetFMUState", "true".into()),
         ("canSerializeFMUState", "true".into()),
     ];
-    let mut attrs = common.to_vec();
-    attrs.push(("needsCompletedIntegratorStep", "true".into()));
-    put(Event::Empty(elem("ModelExchange", &attrs)));
+    if me.is_some() {
+        let mut attrs = common.to_vec();
+        attrs.push(("needsCompletedIntegratorStep", "true".into()));
+        put(Event::Empty(elem("ModelExchange", &attrs)));
+    }
     let mut attrs = common.to_vec();
     attrs.extend([
         ("canHandleVariableCommunicationStepSize", "true".into()),
@@ -617,15 +618,12 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
             _ => put(Event::Empty(elem(ty, &attrs))),
         }
     }
-    for (k, [name, desc]) in me.event_indicators.iter().enumerate() {
+    for (k, [name, desc]) in indicators.iter().enumerate() {
         put(Event::Empty(elem(
             "Float64",
             &[
                 ("name", name.clone()),
-                (
-                    "valueReference",
-                    (me.event_indicator_vr + k as u32).to_string(),
-                ),
+                ("valueReference", (indicator_vr0 + k as u32).to_string()),
                 ("description", format!("Event indicator: {desc}")),
                 ("causality", "local".into()),
                 ("variability", "continuous".into()),
@@ -654,8 +652,8 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
             "output" | "calculatedParameter" | "local"
         )
     });
-    for k in 0..me.event_indicators.len() {
-        let vr = me.event_indicator_vr + k as u32;
+    for k in 0..indicators.len() {
+        let vr = indicator_vr0 + k as u32;
         put(Event::Empty(elem(
             "EventIndicator",
             &[("valueReference", vr.to_string())],

@@ -1,11 +1,12 @@
-//! Builds target/fmu/SpurGearTrain.fmu (FMI 2.0 Co-Simulation): the release binary of
+//! Builds target/fmu/SpurGearTrain.fmu (FMI 2.0 Co-Simulation) and SpurGearTrain-fmi3.fmu
+//! (FMI 3.0 Co-Simulation, the same binary): the release binary of
 //! train-fmu/, modelDescription.xml from the same expanded table as its value references, and
 //! documentation/index.html with the topology rules and a drawing of the default train
 //! (docs/train-layout.png, made by tools/train_layout.py from the same defaults).
 //!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-train`; prints the path.
 
-use model_description::{model_description_xml, train, Table};
+use model_description::{model_description_xml, model_description_xml3, train, Table};
 
 const LAYOUT_PNG: &[u8] = include_bytes!("../../../docs/train-layout.png");
 
@@ -23,6 +24,17 @@ fn main() {
             ("documentation/train-layout.png", LAYOUT_PNG),
         ],
     );
+    let xml3 = model_description_xml3(&table, env!("CARGO_PKG_VERSION"));
+    let path3 = fmu_packaging::write_fmu(
+        "SpurGearTrain-fmi3",
+        &[
+            ("modelDescription.xml", xml3.as_bytes()),
+            ("binaries/x86_64-linux/SpurGearTrain.so", &so),
+            ("documentation/index.html", doc.as_bytes()),
+            ("documentation/train-layout.png", LAYOUT_PNG),
+        ],
+    );
+    eprintln!("FMI 3.0: {}", path3.display());
     println!("{}", path.display());
 }
 
