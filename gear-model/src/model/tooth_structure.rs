@@ -696,7 +696,7 @@ mod tests {
     fn matches_the_python_reference() {
         let text = std::fs::read_to_string(concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/tests/reference/tooth_structure.csv"
+            "/../tests/reference/tooth_structure.csv"
         ))
         .unwrap();
         let mut rows = 0;
