@@ -64,7 +64,7 @@ fn main() {
          Quasi-static at a line load of 300 N/mm, E = 2.06e11 Pa and nu = 0.3 on both wheels (ISO's \
          steel), the ISO 53 basic rack (dedendum 1.25, rack tip radius 0.38), solid wheels with the \
          bore at half the root radius. Mean: the mean over one mesh cycle of the secant stiffness \
-         W/dte from an exact static balance at 2048 positions (`src/model/static_mesh.rs`), against \
+         W/dte from an exact static balance at 2048 positions (`gear-model/src/model/static_mesh.rs`), against \
          c_gamma_alpha; peak: the largest secant stiffness of one pair carrying the whole load over \
          the single-contact zone, against c'. Stiffness per unit face width in N/(mm um); ratios are \
          model/ISO. ISO: c' = c'_th C_M C_R C_B with C_M = 0.8, C_R = 1, C_B = 1 + 0.5 (1.2 - 1.25) \
