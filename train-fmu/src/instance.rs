@@ -10,7 +10,7 @@ use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::logging::LOG_EVENTS;
 use fmi2_slave::{Boolean, Logger, Slave, Status, ValueReference};
 use gear_model::driver::train_simulation::TrainSimulation;
-use gear_model::driver::DriverError;
+use gear_model::driver::{DriverError, Method};
 use gear_model::model::statistics::Summary;
 use gear_model::variables as single;
 
@@ -567,6 +567,26 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
     let mut values = vec![d.t, d.observed, d.search_from, t.e_gate, t.e_start];
     values.extend_from_slice(&d.y_start);
     values.extend(t.meshes.iter().flat_map(|m| m.sigma));
+    values.extend_from_slice(&t.loads.tau);
+    // The method's own state: a state edited with a recomputed checksum must bring no NaN.
+    match &d.method {
+        Method::Dopri5(x) => {
+            values.extend([x.t, x.t_prev, x.h]);
+            values.extend_from_slice(&x.y);
+            values.extend_from_slice(&x.k1);
+            x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+        }
+        Method::Dop853(x) => {
+            values.extend([x.t, x.t_prev, x.h]);
+            values.extend_from_slice(&x.y);
+            values.extend_from_slice(&x.k1);
+            x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+        }
+        Method::Bdf(x) => {
+            values.extend([x.t, x.t_prev, x.h]);
+            values.extend_from_slice(&x.y);
+        }
+    }
     if values.iter().any(|v| !v.is_finite()) || !(d.tol.rtol >= 1e-14 && d.tol.rtol <= 0.1) {
         return Err("a value of the simulation state is not finite or out of range".into());
     }
