@@ -3,7 +3,9 @@
 
 use crate::variables::{Inputs, Params, Var, VarInfo, VARIABLES};
 use gear_model::model::mesh::Coefficients;
-use gear_model::model::train::{Body, MeshPlace, Shaft, TrainLoads, TrainSpec};
+use gear_model::model::train::{
+    Body, MeshPlace, Shaft, TrainLoads, TrainSpec, MAX_BODIES, MAX_MESHES,
+};
 use gear_model::variables as single;
 
 /// A train variable by its structured name (all of them exist: the table is generated).
@@ -135,19 +137,40 @@ pub fn spec(p: &Params) -> Result<TrainSpec, String> {
     })
 }
 
+/// The variables a master may change while the train runs (every body's torque, every mesh's
+/// chi, mu, v_reg), looked up by name once per instance: `loads` runs on every input change.
+#[derive(Clone, Debug)]
+pub struct LoadVars {
+    tau: Vec<Var>,
+    coef: Vec<[Var; 3]>,
+}
+
+impl Default for LoadVars {
+    fn default() -> Self {
+        LoadVars {
+            tau: (1..=MAX_BODIES)
+                .map(|k| var(&format!("body[{k}].tau")))
+                .collect(),
+            coef: (1..=MAX_MESHES)
+                .map(|m| ["chi", "mu", "v_reg"].map(|n| var(&format!("mesh[{m}].{n}"))))
+                .collect(),
+        }
+    }
+}
+
 /// The bodies' torques and the meshes' tunable coefficients.
-pub fn loads(p: &Params, i: &Inputs) -> TrainLoads {
-    let tau = (1..=p.n_bodies as usize)
-        .map(|k| {
-            i.get_real(var(&format!("body[{k}].tau")))
-                .expect("an input")
-        })
+pub fn loads(p: &Params, i: &Inputs, v: &LoadVars) -> TrainLoads {
+    let real = |x: Option<f64>| x.expect("a Real input or parameter");
+    let tau = v.tau[..p.n_bodies as usize]
+        .iter()
+        .map(|&t| real(i.get_real(t)))
         .collect();
-    let coef = (1..=p.n_meshes as usize)
-        .map(|m| Coefficients {
-            chi: real(p, &format!("mesh[{m}].chi")),
-            mu: real(p, &format!("mesh[{m}].mu")),
-            v_reg: real(p, &format!("mesh[{m}].v_reg")),
+    let coef = v.coef[..p.n_meshes as usize]
+        .iter()
+        .map(|&[chi, mu, v_reg]| Coefficients {
+            chi: real(p.get_real(chi)),
+            mu: real(p.get_real(mu)),
+            v_reg: real(p.get_real(v_reg)),
         })
         .collect();
     TrainLoads { tau, coef }

@@ -47,6 +47,8 @@ pub struct SpurGearTrain {
     fresh: bool,
     /// Each output's source, from its name (built once per instance).
     sources: Vec<(Var, Source)>,
+    /// The inputs' and tunables' variables (looked up once per instance).
+    load_vars: build::LoadVars,
 }
 
 fn sources() -> Vec<(Var, Source)> {
@@ -85,6 +87,7 @@ impl SpurGearTrain {
             outputs: Outputs::default(),
             fresh: false,
             sources: sources(),
+            load_vars: build::LoadVars::default(),
         }
     }
 
@@ -99,7 +102,7 @@ impl SpurGearTrain {
     fn build(&mut self) -> Result<&mut TrainSimulation, Failure> {
         if self.snap.sim.is_none() {
             let s = &self.snap;
-            let sim = fresh_simulation(s, self.tolerance()).map_err(error)?;
+            let sim = fresh_simulation(s, self.tolerance(), &self.load_vars).map_err(error)?;
             self.snap.sim = Some(sim);
             self.fresh = false;
         }
@@ -199,7 +202,7 @@ impl SpurGearTrain {
         self.snap.inputs = inputs;
         self.fresh = false;
         if running {
-            let loads = build::loads(&self.snap.params, &self.snap.inputs);
+            let loads = build::loads(&self.snap.params, &self.snap.inputs, &self.load_vars);
             if let Some(sim) = self.snap.sim.as_mut() {
                 sim.set_loads(loads);
             }
@@ -211,10 +214,14 @@ impl SpurGearTrain {
 }
 
 /// A train simulation from the snapshot's parameters and inputs.
-fn fresh_simulation(s: &Snapshot, rel_tol: f64) -> Result<TrainSimulation, String> {
+fn fresh_simulation(
+    s: &Snapshot,
+    rel_tol: f64,
+    vars: &build::LoadVars,
+) -> Result<TrainSimulation, String> {
     build::validate(&s.params)?;
     let spec = build::spec(&s.params)?;
-    let loads = build::loads(&s.params, &s.inputs);
+    let loads = build::loads(&s.params, &s.inputs, vars);
     let p = &s.params;
     let mut sim = TrainSimulation::new(
         spec,
@@ -240,7 +247,9 @@ fn write_outputs(sim: &TrainSimulation, sources: &[(Var, Source)]) -> Result<Out
     let stats = sim.statistics();
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
     for m in 0..train.meshes.len() {
-        let r = train.mesh_readout(m, &y).map_err(|e| e.to_string())?;
+        let r = train
+            .mesh_readout_at(m, &y, &b)
+            .map_err(|e| e.to_string())?;
         let run = stats
             .as_ref()
             .map_or(Summary::default(), |s| s[m].summary());
@@ -541,7 +550,7 @@ impl Slave for SpurGearTrain {
             ..s.clone()
         };
         if let Some(sim) = s.sim.as_mut() {
-            let fresh = fresh_simulation(&bare, rel_tol)
+            let fresh = fresh_simulation(&bare, rel_tol, &build::LoadVars::default())
                 .map_err(|e| format!("parameters in the state: {e}"))?;
             restore(sim, &fresh)?;
         }

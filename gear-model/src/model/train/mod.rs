@@ -516,8 +516,17 @@ impl Train {
 
     /// Mesh m's readout at y.
     pub fn mesh_readout(&self, m: usize, y: &State) -> Result<mesh::MeshReadout, LawOutOfRange> {
-        let b = self.bodies(y);
-        let k = self.kin(m, y, &b);
+        self.mesh_readout_at(m, y, &self.bodies(y))
+    }
+
+    /// The same with the bodies at y already at hand (every mesh's outputs after a step).
+    pub fn mesh_readout_at(
+        &self,
+        m: usize,
+        y: &State,
+        b: &Bodies,
+    ) -> Result<mesh::MeshReadout, LawOutOfRange> {
+        let k = self.kin(m, y, b);
         let (pairs, load) = self.meshes[m]
             .compliant_pair_forces(&k)
             .map_err(|e| named(m, e))?;

@@ -14,23 +14,20 @@ fn frame_sign(sense_a: f64) -> f64 {
 }
 
 /// The absolute start angle psi(0) of the gear being placed, given its axis angle chi in the
-/// mesh frame up to whole teeth: chi = x + q dz. Returns (psi, q) with psi in (-dz/2, dz/2]
-/// (the tooth nearest its reference is tooth 0).
-fn nearest(x: f64, dz: f64, s: f64, beta: f64, mount: f64) -> (f64, i64) {
+/// mesh frame up to whole teeth: chi = x + q dz. Returns psi in (-dz/2, dz/2] (the tooth
+/// nearest its reference is tooth 0); `pairing` then reads which teeth meet.
+fn nearest(x: f64, dz: f64, s: f64, beta: f64, mount: f64) -> f64 {
     // psi = beta - mount + s chi = base + s q dz
     let base = beta - mount + s * x;
-    let j = ((-0.5 * dz - base) / dz).floor() + 1.0;
-    let mut psi = base + j * dz;
-    let mut j = j as i64;
+    let psi = base + (((-0.5 * dz - base) / dz).floor() + 1.0) * dz;
     // Rounding at the interval's ends.
     if psi <= -0.5 * dz {
-        psi += dz;
-        j += 1;
+        psi + dz
     } else if psi > 0.5 * dz {
-        psi -= dz;
-        j -= 1;
+        psi - dz
+    } else {
+        psi
     }
-    (psi, j * s as i64)
 }
 
 /// The start of every body and mesh.
@@ -74,13 +71,11 @@ pub fn place(spec: &TrainSpec, tree: &Tree, geo: &[Geometry]) -> Start {
                     let chi_a = s * (psi[mp.a] - beta) + s * mp.mount_a;
                     // r_bb chi_B = fixed - r_ab chi_A + q p_b, q = n_A - n_B.
                     let x = (fixed - g.r_ab * chi_a) / g.r_bb;
-                    let (p, _) = nearest(x, g.d_b, s, beta, mp.mount_b);
-                    psi[mp.b] = p;
+                    psi[mp.b] = nearest(x, g.d_b, s, beta, mp.mount_b);
                 } else {
                     let chi_b = s * (psi[mp.b] - beta) + s * mp.mount_b;
                     let x = (fixed - g.r_bb * chi_b) / g.r_ab;
-                    let (p, _) = nearest(x, g.d_a, s, beta, mp.mount_a);
-                    psi[mp.a] = p;
+                    psi[mp.a] = nearest(x, g.d_a, s, beta, mp.mount_a);
                 }
                 meshes[m] = pairing(
                     g,
