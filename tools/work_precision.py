@@ -569,7 +569,7 @@ def stats_table(results, ref):
 
 
 def plot(all_results, refs, path, ylabel="max |dte error| / dte range",
-         title="SpurGearMesh work-precision: dte error against CPU time"):
+         suptitle="SpurGearMesh work-precision: dte error against CPU time"):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -613,7 +613,7 @@ def plot(all_results, refs, path, ylabel="max |dte error| / dte range",
                 handles.append(h)
                 labels.append(l)
     fig.legend(handles, labels, loc="lower right", ncol=2, fontsize=9)
-    fig.suptitle(f"{title} (dashed: 0.1 % of the "
+    fig.suptitle(f"{suptitle} (dashed: 0.1 % of the "
                  f"range; dotted: errors below {FLOOR:g} drawn at it)", fontsize=12)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.savefig(path, dpi=110)
@@ -788,7 +788,7 @@ def train_info(info):
 
 def plot_trains(refs, results):
     plot(results, refs, TRAIN_PLOT, ylabel="worst mesh: max |dte error| / its dte range",
-         title="SpurGearTrain work-precision: worst mesh's dte error against CPU time")
+         suptitle="SpurGearTrain work-precision: worst mesh's dte error against CPU time")
 
 
 def main_trains(names, args, counting, info):
@@ -1266,10 +1266,14 @@ def train_self_agreement_horizon(ref: TrainReference):
     """As self_agreement_horizon for the single mesh, on every mesh's dte: the largest T over
     which train_ref with body[1].w_start perturbed by 1e-9 and train_ref at rtol 1e-12 both stay
     within HORIZON_FRACTION of the reference's running dte range, on every mesh.  Cached in
-    target/work-precision/train-horizons.json against the reference file's size and mtime."""
-    path = os.path.join(TRAIN_REF_DIR, ref.name + ".csv")
-    st = os.stat(path)
-    key = f"{ref.name}:{st.st_size}:{int(st.st_mtime)}:{HORIZON_FRACTION:g}"
+    target/work-precision/train-horizons.json against the reference file's and the scene file's
+    contents (the two runs take about 45 s for rattle)."""
+    import hashlib
+    h = hashlib.sha256()
+    for path in (os.path.join(TRAIN_REF_DIR, ref.name + ".csv"), ref.scene["path"]):
+        with open(path, "rb") as f:
+            h.update(f.read())
+    key = f"{ref.name}:{h.hexdigest()[:16]}:{HORIZON_FRACTION:g}"
     cache_path = os.path.join(OUT, "train-horizons.json")
     cache = {}
     if os.path.exists(cache_path):
