@@ -184,7 +184,14 @@ fn default_columns(nb: i32, ns: i32, nm: i32) -> Vec<String> {
             names.push(format!("mesh[{m}].{v}"));
         }
     }
-    for v in ["E_kin", "E_el", "E_gate", "W_ext", "W_loss", "energy_residual"] {
+    for v in [
+        "E_kin",
+        "E_el",
+        "E_gate",
+        "W_ext",
+        "W_loss",
+        "energy_residual",
+    ] {
         names.push(v.to_string());
     }
     names
@@ -196,7 +203,7 @@ fn set_start(s: &mut SpurGearTrain, v: Var, x: &Value) -> Result<(), String> {
         Value::Real(x) => s.set_real(&vr, &[*x], false),
         Value::Int(x) => s.set_integer(&vr, &[*x], false),
         Value::Bool(x) => s.set_boolean(&vr, &[*x as i32], false),
-        Value::Str(x) => s.set_string(&vr, &[x.clone()], false),
+        Value::Str(x) => s.set_string(&vr, std::slice::from_ref(x), false),
     }
     .map_err(|f| format!("{} = {x:?}: {}", v.info().name, f.message))
 }
@@ -212,7 +219,12 @@ fn columns(names: &[String]) -> Vec<(u32, bool)> {
         .collect()
 }
 
-fn read_row(s: &mut SpurGearTrain, t: f64, cols: &[(u32, bool)], row: &mut Vec<f64>) -> Result<(), String> {
+fn read_row(
+    s: &mut SpurGearTrain,
+    t: f64,
+    cols: &[(u32, bool)],
+    row: &mut Vec<f64>,
+) -> Result<(), String> {
     row.clear();
     row.push(t);
     for &(vr, real) in cols {
@@ -407,7 +419,11 @@ fn main() {
             set_start(&mut s, *v, x).expect("start value");
         }
         let n = |s: &mut SpurGearTrain, k: &str| s.get_integer(var(k).info().vr).unwrap();
-        let (nb, ns, nm) = (n(&mut s, "n_bodies"), n(&mut s, "n_shafts"), n(&mut s, "n_meshes"));
+        let (nb, ns, nm) = (
+            n(&mut s, "n_bodies"),
+            n(&mut s, "n_shafts"),
+            n(&mut s, "n_meshes"),
+        );
         default_columns(nb, ns, nm)
     });
     let logger = Logger::new(
