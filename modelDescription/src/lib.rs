@@ -62,7 +62,8 @@ pub struct ModelInfo {
 pub struct ModelExchange {
     /// The value reference of the first event indicator (FMI 3.0 declares them as variables).
     pub event_indicator_vr: u32,
-    /// Name and description of each event indicator, in order.
+    /// Name and description of each event indicator, in order (a train's are generated).
+    #[serde(default)]
     pub event_indicators: Vec<[String; 2]>,
 }
 

@@ -52,11 +52,10 @@ pub fn expand(text: &str, single: &Table) -> Table {
             .unwrap_or_else(|| panic!("from_single: {name} is not in the single mesh's table"));
         vars.push(copy(v, v.name.clone(), v.vr, v.description.clone()));
     }
-    vars.extend(
-        t.vars
-            .iter()
-            .map(|v| copy(v, v.name.clone(), v.vr, v.description.clone())),
-    );
+    vars.extend(t.vars.iter().map(|v| Var {
+        derivative_of: v.derivative_of.clone(),
+        ..copy(v, v.name.clone(), v.vr, v.description.clone())
+    }));
     for e in &t.elements {
         for i in 1..=e.count {
             let base = e.vr_base + i * e.vr_stride;
@@ -64,10 +63,14 @@ pub fn expand(text: &str, single: &Table) -> Table {
             for v in &e.vars {
                 let mut x = copy(
                     v,
-                    format!("{}[{i}].{}", e.kind, v.name),
+                    element_name(&e.kind, i, &v.name),
                     base + v.vr,
                     format!("{who}: {}", v.description),
                 );
+                x.derivative_of = v
+                    .derivative_of
+                    .as_ref()
+                    .map(|of| element_name(&e.kind, i, of));
                 // A start value per index, or one for all.
                 if let Some(toml::Value::Array(a)) = &v.start {
                     x.start = Some(a.get(i as usize - 1).cloned().unwrap_or_else(|| {
@@ -108,15 +111,36 @@ pub fn expand(text: &str, single: &Table) -> Table {
     }
     let mut units = single.units.clone();
     units.extend(t.units);
-    let mut table = Table {
+    let mut model = t.model;
+    if let Some(me) = model.model_exchange.as_mut() {
+        // Every mesh's event functions, as the single mesh names them.
+        let single_me = single.model.model_exchange.as_ref();
+        let indicators = single_me.map_or(&[][..], |s| &s.event_indicators[..]);
+        let meshes = t.elements.iter().find(|e| e.kind == "mesh").map_or(0, |e| e.count);
+        me.event_indicators = (1..=meshes)
+            .flat_map(|m| {
+                indicators.iter().map(move |[name, what]| {
+                    [element_name("mesh", m, name), format!("Mesh {m}: {what}")]
+                })
+            })
+            .collect();
+    }
+    let table = Table {
         text: format!("{text}\n{}", single.text),
-        model: t.model,
+        model,
         units,
         vars,
     };
-    table.vars.iter_mut().for_each(|v| v.derivative_of = None);
     crate::check(&table);
     table
+}
+
+/// `kind[i].name`, and `der(kind[i].x)` for a template's `der(x)`.
+fn element_name(kind: &str, i: u32, name: &str) -> String {
+    match name.strip_prefix("der(").and_then(|n| n.strip_suffix(')')) {
+        Some(of) => format!("der({kind}[{i}].{of})"),
+        None => format!("{kind}[{i}].{name}"),
+    }
 }
 
 fn capitalized(s: &str) -> String {

@@ -176,6 +176,9 @@ fn rebuild_exchange(ex: &mut Exchange, s: &Snapshot) -> Result<(), String> {
             "a value of the Model Exchange state is not finite ({bad})"
         ));
     }
+    if !ex.points_finite() {
+        return Err("a point of the Model Exchange state is not finite".into());
+    }
     Ok(())
 }
 

@@ -55,6 +55,14 @@ def train_fmu_path():
 
 
 @pytest.fixture(scope="session")
+def train_fmu3_path(train_fmu_path):
+    """The FMI 3.0 train FMU, which package-train writes beside the FMI 2.0 one."""
+    path = train_fmu_path.parent / "SpurGearTrain-fmi3.fmu"
+    assert path.is_file(), path
+    return path
+
+
+@pytest.fixture(scope="session")
 def fmu3_path(fmu_path):
     """The FMI 3.0 FMU, which the packager writes beside the FMI 2.0 one."""
     path = fmu_path.parent / "SpurGearMesh-fmi3.fmu"

@@ -131,9 +131,12 @@ def outputs(scene):
     return names
 
 
-def fmpy_command(fmu, scene, output_file, rel_tol=None):
-    """The `fmpy simulate` command line of a train scene (see the module docstring)."""
+def fmpy_command(fmu, scene, output_file, rel_tol=None, solver=None):
+    """The `fmpy simulate` command line of a train scene (see the module docstring). solver:
+    None runs Co-Simulation; "CVode" or "Euler" runs Model Exchange with FMPy's solver."""
     cmd = [S.fmpy_executable(), "simulate", str(fmu), "--validate"]
+    if solver is not None:
+        cmd += ["--interface-type", "ModelExchange", "--solver", solver, "--dont-record-events"]
     sv = scene.get("start_values", {})
     if sv:
         cmd.append("--start-values")
@@ -149,10 +152,11 @@ def fmpy_command(fmu, scene, output_file, rel_tol=None):
     return cmd
 
 
-def run_fmpy(fmu, scene, workdir, rel_tol=None):
+def run_fmpy(fmu, scene, workdir, rel_tol=None, solver=None):
     tag = "" if rel_tol is None else f".rtol{rel_tol:g}"
+    tag += "" if solver is None else f".me-{solver}"
     out = Path(workdir) / f"train-{scene['name']}{tag}.fmu.csv"
-    cmd = fmpy_command(Path(fmu).resolve(), scene, out, rel_tol)
+    cmd = fmpy_command(Path(fmu).resolve(), scene, out, rel_tol, solver)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(workdir))
     seconds = time.perf_counter() - t0
@@ -203,11 +207,11 @@ def compare_statistics(scene, fnames, ftab, rnames, rtab):
     return checks
 
 
-def compare_scene(fmu, name, workdir, rel_tol=None):
+def compare_scene(fmu, name, workdir, rel_tol=None, solver=None):
     t0 = time.perf_counter()
     scene = load_scene(name)
     mode = scene.get("mode", "trace")
-    fnames, ftab, seconds, cmd = run_fmpy(fmu, scene, workdir, rel_tol)
+    fnames, ftab, seconds, cmd = run_fmpy(fmu, scene, workdir, rel_tol, solver)
     rnames, rtab = S.read_csv(TRAIN_REF_DIR / f"{name}.csv")
     res = S.SceneResult(name, mode, fmpy_seconds=seconds, command=cmd)
     if mode == "trace":

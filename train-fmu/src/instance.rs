@@ -1,18 +1,25 @@
-//! SpurGearTrain as an `fmi2_slave::Slave`: parameters and inputs, initialization, stepping,
-//! outputs and FMU states. The FMI state machine around it is fmi2_slave's `Instance`.
+//! SpurGearTrain as an `fmi2_slave::Slave`: parameters and inputs, initialization, stepping
+//! (Co-Simulation) or the master's integration (Model Exchange, `Exchange`), outputs and FMU
+//! states. The FMI state machine around it is fmi2_slave's `Instance`.
 
 use crate::build::{self, element, var};
 use crate::variables::{
-    Calculated, Causality, Inputs, Outputs, Params, Var, VarType, Variability, GUID,
-    LOG_CATEGORIES, MODEL_IDENTIFIER,
+    Calculated, Causality, Inputs, Locals, Outputs, Params, Var, VarType, Variability, GUID,
+    LOG_CATEGORIES, MODEL_IDENTIFIER, N_EVENT_INDICATORS, STATES,
 };
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::logging::LOG_EVENTS;
-use fmi2_slave::{Boolean, Logger, Slave, Status, ValueReference};
+use fmi2_slave::{Boolean, EventUpdate, Logger, Slave, Status, ValueReference};
+use gear_model::driver::exchange::{EventError, Exchange, ExchangeRig};
 use gear_model::driver::train_simulation::TrainSimulation;
-use gear_model::driver::{DriverError, Method};
-use gear_model::model::statistics::Summary;
+use gear_model::driver::{DriverError, Method, Stats, Vector};
+use gear_model::model::statistics::{Statistics, Summary};
+use gear_model::model::train::{self, Margins, State, Train, N_MARGINS, N_MASTER_STATES, NY};
 use gear_model::variables as single;
+
+// The table's states and event indicators are the model's, in its order.
+const _: () = assert!(STATES.len() == N_MASTER_STATES);
+const _: () = assert!(N_EVENT_INDICATORS == N_MARGINS);
 
 pub use fmi2_slave::instance::{error, Failure};
 
@@ -26,7 +33,21 @@ pub struct Snapshot {
     pub start_time: f64,
     pub stop_time: Option<f64>,
     pub tolerance: Option<f64>,
+    /// Co-Simulation, and either interface in initialization mode.
     pub sim: Option<TrainSimulation>,
+    /// Model Exchange after initialization (the master integrates).
+    pub me: Option<Exchange<Train>>,
+}
+
+impl Snapshot {
+    /// The train and the state at the current time, if there is a run (of either interface).
+    fn current(&self) -> Option<(&Train, State)> {
+        match (&self.me, &self.sim) {
+            (Some(ex), _) => Some((&ex.rig, ex.y)),
+            (None, Some(sim)) => Some((&sim.train, sim.state())),
+            (None, None) => None,
+        }
+    }
 }
 
 /// Where an output comes from.
@@ -35,6 +56,7 @@ enum Source {
     BodyTheta(usize),
     BodyW(usize),
     ShaftTau(usize),
+    ShaftTwist(usize),
     /// Mesh m's output of the single mesh's name.
     Mesh(usize, single::Var),
     Whole,
@@ -65,6 +87,7 @@ fn sources() -> Vec<(Var, Source)> {
                 Some(("body", i, "theta")) => Source::BodyTheta(i - 1),
                 Some(("body", i, "w")) => Source::BodyW(i - 1),
                 Some(("shaft", j, "tau")) => Source::ShaftTau(j - 1),
+                Some(("shaft", j, "twist")) => Source::ShaftTwist(j - 1),
                 Some(("mesh", m, name)) => Source::Mesh(
                     m - 1,
                     single::Var::from_name(name).expect("a mesh's rows are the single mesh's"),
@@ -113,13 +136,23 @@ impl SpurGearTrain {
     /// naming it: no NaN reaches a master.
     fn outputs(&mut self) -> Result<&Outputs, Failure> {
         if !self.fresh {
-            self.build()?;
-            let sim = self.snap.sim.as_ref().expect("just built");
-            let o = write_outputs(sim, &self.sources).map_err(error)?;
+            let o = match &self.snap.me {
+                Some(ex) => {
+                    let stats = ex.rig.stats.clone();
+                    write_outputs(&ex.rig, &ex.y, stats, &ex.stats, &self.sources)
+                }
+                None => {
+                    self.build()?;
+                    let sim = self.snap.sim.as_ref().expect("just built");
+                    let (y, stats) = (sim.state(), sim.statistics());
+                    write_outputs(&sim.train, &y, stats, &sim.driver.stats, &self.sources)
+                }
+            }
+            .map_err(error)?;
             if let Some((name, x)) = o.first_non_finite() {
                 return Err(error(format!(
                     "output {name} = {x} is not finite at t = {}: check the parameters and start values",
-                    sim.time()
+                    self.time()
                 )));
             }
             self.outputs = o;
@@ -128,12 +161,53 @@ impl SpurGearTrain {
         Ok(&self.outputs)
     }
 
+    /// The train and the state at the current time, of either interface, built if need be.
+    fn point(&mut self) -> Result<(&Train, State), Failure> {
+        if self.snap.me.is_none() {
+            self.build()?;
+        }
+        Ok(self.snap.current().expect("built above"))
+    }
+
+    /// The locals (the states that are not outputs, and every state's derivative) at the
+    /// current time: a right-hand-side evaluation, so only when a master reads one.
+    #[cold]
+    #[inline(never)]
+    fn locals(&mut self) -> Result<Locals, Failure> {
+        let t = self.time();
+        let (train, y) = self.point()?;
+        let mut dy = [0.0; NY];
+        train
+            .rhs(&y, &mut dy)
+            .map_err(|e| error(format!("at t = {t} s: {e}")))?;
+        let (mut x, mut dx) = ([0.0; N_MASTER_STATES], [0.0; N_MASTER_STATES]);
+        train.to_master(&y, &mut x);
+        train.to_master(&dy, &mut dx);
+        let mut l = Locals::default();
+        for (k, &(state, der)) in STATES.iter().enumerate() {
+            l.set_real(state, x[k]);
+            l.set_real(der, dx[k]);
+        }
+        if let Some((name, v)) = l.first_non_finite() {
+            return Err(error(format!(
+                "{name} = {v} is not finite at t = {t}: check the parameters and start values"
+            )));
+        }
+        Ok(l)
+    }
+
+    /// The Model Exchange run (after initialization).
+    fn exchange(&mut self) -> Result<&mut Exchange<Train>, Failure> {
+        self.snap
+            .me
+            .as_mut()
+            .ok_or_else(|| error("the instance has no Model Exchange state".into()))
+    }
+
     fn calculated(&mut self) -> Result<Calculated, Failure> {
-        self.build()?;
-        let sim = self.snap.sim.as_ref().expect("just built");
+        let (train, _) = self.point()?;
         let mut c = Calculated::default();
-        let per_mesh: Vec<single::Calculated> = sim
-            .train
+        let per_mesh: Vec<single::Calculated> = train
             .meshes
             .iter()
             .map(|m| single::Calculated::of_geometry(&m.geo))
@@ -160,13 +234,14 @@ impl SpurGearTrain {
         input: impl Fn(&Inputs) -> Option<T>,
         output: impl Fn(&Outputs) -> Option<T>,
         calc: impl Fn(&Calculated) -> Option<T>,
+        local: impl Fn(&Locals) -> Option<T>,
     ) -> Result<T, Failure> {
         let got = match v.info().causality {
             Causality::Parameter => param(&self.snap.params),
             Causality::Input => input(&self.snap.inputs),
             Causality::Output => output(self.outputs()?),
             Causality::CalculatedParameter => calc(&self.calculated()?),
-            Causality::Local => None,
+            Causality::Local => local(&self.locals()?),
         };
         got.ok_or_else(|| error(format!("{} has no value of that type", v.info().name)))
     }
@@ -203,7 +278,9 @@ impl SpurGearTrain {
         self.fresh = false;
         if running {
             let loads = build::loads(&self.snap.params, &self.snap.inputs, &self.load_vars);
-            if let Some(sim) = self.snap.sim.as_mut() {
+            if let Some(ex) = self.snap.me.as_mut() {
+                ex.set_loads(loads);
+            } else if let Some(sim) = self.snap.sim.as_mut() {
                 sim.set_loads(loads);
             }
         } else {
@@ -239,23 +316,26 @@ fn fresh_simulation(
     Ok(sim)
 }
 
-/// Every output at the simulation's current time.
-fn write_outputs(sim: &TrainSimulation, sources: &[(Var, Source)]) -> Result<Outputs, String> {
-    let train = &sim.train;
-    let y = sim.state();
-    let b = train.bodies(&y);
-    let stats = sim.statistics();
+/// Every output at state y, with each mesh's statistics and the integration's counters.
+fn write_outputs(
+    train: &Train,
+    y: &State,
+    stats: Option<Vec<Statistics>>,
+    st: &Stats,
+    sources: &[(Var, Source)],
+) -> Result<Outputs, String> {
+    let b = train.bodies(y);
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
     for m in 0..train.meshes.len() {
         let r = train
-            .mesh_readout_at(m, &y, &b)
+            .mesh_readout_at(m, y, &b)
             .map_err(|e| e.to_string())?;
         let run = stats
             .as_ref()
             .map_or(Summary::default(), |s| s[m].summary());
         let mut o = single::Outputs::default();
         o.set_mesh(&r, &run);
-        o.dte = train.dte(m, &y);
+        o.dte = train.dte(m, y);
         o.P_loss = r.p_loss;
         per_mesh.push(o);
     }
@@ -265,7 +345,8 @@ fn write_outputs(sim: &TrainSimulation, sources: &[(Var, Source)]) -> Result<Out
         match s {
             Source::BodyTheta(i) if i < n_bodies => o.set_real(v, b.theta[i]),
             Source::BodyW(i) if i < n_bodies => o.set_real(v, b.w[i]),
-            Source::ShaftTau(j) if j < n_shafts => o.set_real(v, train.shaft_torque(j, &y)),
+            Source::ShaftTau(j) if j < n_shafts => o.set_real(v, train.shaft_torque(j, y)),
+            Source::ShaftTwist(j) if j < n_shafts => o.set_real(v, train.shaft_twist(j, y)),
             Source::Mesh(m, sv) if m < per_mesh.len() => {
                 if let Some(x) = per_mesh[m].get_real(sv) {
                     o.set_real(v, x)
@@ -276,15 +357,14 @@ fn write_outputs(sim: &TrainSimulation, sources: &[(Var, Source)]) -> Result<Out
             _ => false,
         };
     }
-    let (e_kin, e_el, residual) = train.energy(&y).map_err(|e| e.to_string())?;
+    let (e_kin, e_el, residual) = train.energy(y).map_err(|e| e.to_string())?;
     o.E_kin = e_kin;
     o.E_el = e_el;
     o.energy_residual = residual;
-    o.W_ext = y[gear_model::model::train::W_EXT];
-    o.W_loss = y[gear_model::model::train::W_LOSS];
+    o.W_ext = y[train::W_EXT];
+    o.W_loss = y[train::W_LOSS];
     o.E_gate = train.e_gate;
     o.n_events = saturate(train.n_events);
-    let st = &sim.driver.stats;
     o.n_steps = saturate(st.steps);
     o.n_rejected_steps = saturate(st.rejected);
     o.n_rhs_evaluations = saturate(st.rhs_evals);
@@ -311,6 +391,7 @@ impl Slave for SpurGearTrain {
             stop_time: None,
             tolerance: None,
             sim: None,
+            me: None,
         })
     }
 
@@ -364,6 +445,7 @@ impl Slave for SpurGearTrain {
             |i| i.get_real(v),
             |o| o.get_real(v),
             |c| c.get_real(v),
+            |l| l.get_real(v),
         )
     }
 
@@ -375,6 +457,7 @@ impl Slave for SpurGearTrain {
             |i| i.get_integer(v),
             |o| o.get_integer(v),
             |c| c.get_integer(v),
+            |_| None,
         )
     }
 
@@ -386,6 +469,7 @@ impl Slave for SpurGearTrain {
             |i| i.get_boolean(v),
             |o| o.get_boolean(v),
             |c| c.get_boolean(v),
+            |_| None,
         )
     }
 
@@ -397,6 +481,7 @@ impl Slave for SpurGearTrain {
             |i| i.get_string(v).map(str::to_owned),
             |o| o.get_string(v).map(str::to_owned),
             |c| c.get_string(v).map(str::to_owned),
+            |_| None,
         )
     }
 
@@ -517,10 +602,11 @@ impl Slave for SpurGearTrain {
     }
 
     fn time(&self) -> f64 {
-        self.snap
-            .sim
-            .as_ref()
-            .map_or(self.snap.start_time, |s| s.time())
+        match (&self.snap.me, &self.snap.sim) {
+            (Some(ex), _) => ex.t,
+            (None, Some(sim)) => sim.time(),
+            (None, None) => self.snap.start_time,
+        }
     }
 
     fn prepare_save(&mut self) {
@@ -545,38 +631,147 @@ impl Slave for SpurGearTrain {
             return Err("invalid experiment settings in the state".into());
         }
         let rel_tol = tol.map_or(s.params.rel_tol, |t| t.min(s.params.rel_tol));
+        if s.sim.is_some() && s.me.is_some() {
+            return Err("a state holds both a Co-Simulation and a Model Exchange run".into());
+        }
         let bare = Snapshot {
             sim: None,
+            me: None,
             ..s.clone()
         };
-        if let Some(sim) = s.sim.as_mut() {
+        if s.sim.is_some() || s.me.is_some() {
             let fresh = fresh_simulation(&bare, rel_tol, &build::LoadVars::default())
                 .map_err(|e| format!("parameters in the state: {e}"))?;
-            restore(sim, &fresh)?;
+            if let Some(sim) = s.sim.as_mut() {
+                restore(sim, &fresh)?;
+            }
+            if let Some(ex) = s.me.as_mut() {
+                restore_exchange(ex, &fresh)?;
+            }
         }
         Ok(SpurGearTrain::from_snapshot(s))
+    }
+
+    // ---- Model Exchange: `Exchange` holds the point the master sets ---------------------------
+
+    const MODEL_EXCHANGE: bool = true;
+    const N_STATES: usize = N_MASTER_STATES;
+    const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
+    const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
+
+    fn me_exit_initialization(&mut self) -> Result<(), Failure> {
+        let sim = self.build()?;
+        let (t, y) = (sim.time(), sim.state());
+        let sim = self.snap.sim.take().expect("just built");
+        self.snap.me = Some(Exchange::at(sim.train, t, y));
+        self.fresh = false;
+        self.outputs()?;
+        Ok(())
+    }
+
+    fn me_set_time(&mut self, t: f64) -> Result<(), Failure> {
+        let ex = self.exchange()?;
+        if ex.t != t {
+            ex.t = t;
+            self.fresh = false;
+        }
+        Ok(())
+    }
+
+    fn me_set_states(&mut self, x: &[f64]) -> Result<(), Failure> {
+        self.exchange()?.set_states(x);
+        self.fresh = false;
+        Ok(())
+    }
+
+    fn me_states(&mut self, x: &mut [f64]) -> Result<(), Failure> {
+        let (train, y) = self.point()?;
+        train.to_master(&y, x);
+        Ok(())
+    }
+
+    fn me_derivatives(&mut self, dx: &mut [f64]) -> Result<(), Failure> {
+        let t = self.time();
+        let at = |e| error(format!("at t = {t} s: {e}"));
+        match self.snap.me.as_mut() {
+            Some(ex) => ex.derivatives(dx).map_err(at),
+            None => {
+                // Initialization mode: the derivatives at the start point.
+                let (train, y) = self.point()?;
+                let mut dy = [0.0; NY];
+                train.rhs(&y, &mut dy).map_err(at)?;
+                train.to_master(&dy, dx);
+                Ok(())
+            }
+        }
+    }
+
+    fn me_event_indicators(&mut self, z: &mut [f64]) -> Result<(), Failure> {
+        let (train, y) = self.point()?;
+        let mut m = <Margins as Vector>::zeros();
+        train.event_margins(&y, &mut m);
+        z.copy_from_slice(&m.0);
+        Ok(())
+    }
+
+    fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
+        let (train, _) = self.point()?;
+        train.nominals(n);
+        Ok(())
+    }
+
+    fn me_enter_event_mode(&mut self) -> Result<(), Failure> {
+        self.exchange().map(|_| ())
+    }
+
+    fn me_new_discrete_states(&mut self, log: &Logger) -> Result<EventUpdate, Failure> {
+        let debug_events = log.enabled(LOG_EVENTS);
+        let ex = self.exchange()?;
+        for m in &mut ex.rig.meshes {
+            m.describe_events = debug_events;
+        }
+        let t = ex.t;
+        let mut texts = Vec::new();
+        let handled = ex.handle_events(&mut |r| {
+            if debug_events {
+                texts.push(format!("t = {t:.12} s: {}", r.what));
+            }
+        });
+        for e in &texts {
+            log.log(Status::Ok, LOG_EVENTS, e);
+        }
+        let ex = self.exchange()?;
+        let update = EventUpdate {
+            states_changed: ex.take_jump(),
+            nominals_changed: ex.take_nominals_changed(),
+            next_event_time: None,
+        };
+        self.fresh = false;
+        let changed = handled.map_err(|e: EventError| error(format!("at t = {t} s: {e}")))?;
+        Ok(EventUpdate {
+            states_changed: update.states_changed || changed,
+            ..update
+        })
+    }
+
+    fn me_completed_integrator_step(&mut self) -> Result<bool, Failure> {
+        let ex = self.exchange()?;
+        let t = ex.t;
+        ex.completed_step()
+            .map_err(|e| error(format!("at t = {t} s: {e}")))?;
+        self.fresh = false;
+        Ok(self.exchange()?.jump_pending())
     }
 }
 
 /// The configuration a state leaves out, from a simulation built afresh from its parameters,
 /// and the checks a checksum cannot make.
 fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), String> {
-    let (t, f) = (&mut sim.train, &fresh.train);
-    if t.meshes.len() != f.meshes.len() || t.stats.is_some() != f.stats.is_some() {
-        return Err("the state does not match its parameters".into());
-    }
-    t.cfg = f.cfg.clone();
-    for (m, fm) in t.meshes.iter_mut().zip(&f.meshes) {
-        m.cfg = fm.cfg.clone();
-        m.describe_events = fm.describe_events;
-        let sigma = m.sigma;
-        m.set_sigma(sigma);
-    }
+    let t = &mut sim.train;
+    let mut values = restore_train(t, &fresh.train)?;
     let d = &sim.driver;
-    let mut values = vec![d.t, d.observed, d.search_from, t.e_gate, t.e_start];
+    values.extend([d.t, d.observed, d.search_from]);
     values.extend_from_slice(&d.y_start);
-    values.extend(t.meshes.iter().flat_map(|m| m.sigma));
-    values.extend_from_slice(&t.loads.tau);
     // The method's own state: a state edited with a recomputed checksum must bring no NaN.
     match &d.method {
         Method::Dopri5(x) => {
@@ -605,6 +800,38 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
         return Err("an event index in the state is out of range".into());
     }
     Ok(())
+}
+
+/// `restore` for a Model Exchange run.
+fn restore_exchange(ex: &mut Exchange<Train>, fresh: &TrainSimulation) -> Result<(), String> {
+    let values = restore_train(&mut ex.rig, &fresh.train)?;
+    if values.iter().any(|v| !v.is_finite()) || !ex.points_finite() {
+        return Err("a value of the Model Exchange state is not finite".into());
+    }
+    Ok(())
+}
+
+/// The train's configuration from one built afresh; returns the train's values that must be
+/// finite.
+fn restore_train(t: &mut Train, f: &Train) -> Result<Vec<f64>, String> {
+    if t.meshes.len() != f.meshes.len()
+        || t.stats.is_some() != f.stats.is_some()
+        || t.loads.tau.len() != f.loads.tau.len()
+        || t.loads.coef.len() != f.loads.coef.len()
+    {
+        return Err("the state does not match its parameters".into());
+    }
+    t.cfg = f.cfg.clone();
+    for (m, fm) in t.meshes.iter_mut().zip(&f.meshes) {
+        m.cfg = fm.cfg.clone();
+        m.describe_events = fm.describe_events;
+        let sigma = m.sigma;
+        m.set_sigma(sigma);
+    }
+    let mut values = vec![t.e_gate, t.e_start];
+    values.extend(t.meshes.iter().flat_map(|m| m.sigma));
+    values.extend_from_slice(&t.loads.tau);
+    Ok(values)
 }
 
 /// A value reference of the given type, or an error naming what it is.

@@ -1,7 +1,8 @@
 //! SpurGearTrain through its exported C functions, in-process (the test links the crate's rlib:
 //! the same symbols as the .so): bad input is refused with messages naming the elements,
 //! instances on many threads give identical answers, FMU states round-trip through their bytes,
-//! and random call sequences never crash, never return NaN and never let a panic out.
+//! Model Exchange gives the states, derivatives and event indicators the table declares, and
+//! random call sequences never crash, never return NaN and never let a panic out.
 #![allow(non_snake_case)]
 
 use fmi2_slave::{CallbackFunctions, Component, LoggerFn, Status};
@@ -38,7 +39,13 @@ struct Fmu {
 }
 
 impl Fmu {
+    /// A Co-Simulation instance.
     fn new() -> Fmu {
+        Fmu::of_type(1)
+    }
+
+    /// fmuType 0: Model Exchange, 1: Co-Simulation.
+    fn of_type(fmu_type: c_int) -> Fmu {
         let sink = Box::new(Sink::default());
         let callbacks = Box::new(CallbackFunctions {
             logger: Some(unsafe {
@@ -63,7 +70,7 @@ impl Fmu {
         let c = unsafe {
             fmi2Instantiate(
                 name.as_ptr(),
-                1,
+                fmu_type,
                 guid.as_ptr(),
                 std::ptr::null(),
                 &*callbacks,
@@ -380,5 +387,139 @@ proptest! {
             };
             prop_assert!(matches!(status, Status::Ok | Status::Warning | Status::Discard | Status::Error), "{status:?}");
         }
+    }
+}
+
+// ---- Model Exchange -------------------------------------------------------------------------
+
+use spur_gear_train::variables::{N_EVENT_INDICATORS, STATES};
+
+/// An initialized Model Exchange instance of the default train, in continuous-time mode.
+fn model_exchange() -> Fmu {
+    let f = Fmu::of_type(0);
+    assert_eq!(f.init(1.0), Status::Ok, "{:?}", f.errors());
+    let mut info = fmi2_slave::EventInfo::default();
+    unsafe {
+        assert_eq!(fmi2NewDiscreteStates(f.c, &mut info), Status::Ok);
+        assert_eq!(fmi2EnterContinuousTimeMode(f.c), Status::Ok);
+    }
+    f
+}
+
+impl Fmu {
+    fn states(&self) -> Vec<f64> {
+        let mut x = vec![f64::NAN; STATES.len()];
+        let st = unsafe { fmi2GetContinuousStates(self.c, x.as_mut_ptr(), x.len()) };
+        assert_eq!(st, Status::Ok, "{:?}", self.errors());
+        x
+    }
+    fn derivatives(&self) -> Vec<f64> {
+        let mut dx = vec![f64::NAN; STATES.len()];
+        let st = unsafe { fmi2GetDerivatives(self.c, dx.as_mut_ptr(), dx.len()) };
+        assert_eq!(st, Status::Ok, "{:?}", self.errors());
+        dx
+    }
+}
+
+/// The states are the table's state variables and the derivatives its derivative variables
+/// (read back by name), elements not in use read 0 with rate 0, der(theta) is w, and the event
+/// indicators and nominals have the declared sizes and are finite.
+#[test]
+fn model_exchange_states_are_the_variables_the_table_declares() {
+    let f = model_exchange();
+    let (x, dx) = (f.states(), f.derivatives());
+    for (k, &(state, der)) in STATES.iter().enumerate() {
+        let (s, d) = (state.info().name, der.info().name);
+        assert_eq!(f.real(s).to_bits(), x[k].to_bits(), "{s}");
+        assert_eq!(f.real(d).to_bits(), dx[k].to_bits(), "{d}");
+        // The default train: 4 bodies, shaft 1 and meshes 1, 2 in use.
+        let unused = ["shaft[2]", "shaft[3]", "shaft[4]", "shaft[5]", "shaft[6]", "shaft[7]"]
+            .iter()
+            .chain(&["mesh[3]", "mesh[4]", "mesh[5]", "mesh[6]"])
+            .any(|e| s.starts_with(e));
+        if unused {
+            assert!(x[k] == 0.0 && dx[k] == 0.0, "{s} = {}, {d} = {}", x[k], dx[k]);
+        }
+    }
+    assert_eq!(f.real("der(body[1].theta)"), f.real("body[1].w"));
+    assert_eq!(f.real("der(shaft[1].twist)"), f.real("shaft[1].twist_rate"));
+    assert_eq!(f.real("der(mesh[2].dte)"), f.real("mesh[2].dte_rate"));
+    // The twist state starts at the shaft's twist_start.
+    assert_eq!(f.real("shaft[1].twist"), f.real("shaft[1].twist_start"));
+    let w = |i: usize| f.real(&format!("body[{i}].w"));
+    assert_eq!(f.real("shaft[1].twist_rate"), w(2) - w(3));
+    let mut z = vec![f64::NAN; N_EVENT_INDICATORS];
+    let mut n = vec![f64::NAN; STATES.len()];
+    unsafe {
+        assert_eq!(fmi2GetEventIndicators(f.c, z.as_mut_ptr(), z.len()), Status::Ok);
+        assert_eq!(
+            fmi2GetNominalsOfContinuousStates(f.c, n.as_mut_ptr(), n.len()),
+            Status::Ok
+        );
+    }
+    assert!(z.iter().all(|v| v.is_finite()));
+    assert!(n.iter().all(|v| v.is_finite() && *v > 0.0), "{n:?}");
+    // The dte's nominal is its static penetration: micrometres, not 1.
+    let dte1 = STATES.iter().position(|s| s.0.info().name == "mesh[1].dte").unwrap();
+    assert!(n[dte1] > 1e-8 && n[dte1] < 1e-4, "{}", n[dte1]);
+}
+
+/// Wrong sizes, non-finite states and Co-Simulation calls are refused with fmi2Error and a
+/// message naming the argument; nothing crashes.
+#[test]
+fn model_exchange_refuses_bad_input() {
+    let f = model_exchange();
+    let mut x = f.states();
+    unsafe {
+        assert_eq!(fmi2SetContinuousStates(f.c, x.as_ptr(), 3), Status::Error);
+    }
+    assert!(f.errors().iter().any(|m| m.contains("nx = 3")), "{:?}", f.errors());
+    let f = model_exchange();
+    x[5] = f64::NAN;
+    unsafe {
+        assert_eq!(fmi2SetContinuousStates(f.c, x.as_ptr(), x.len()), Status::Error);
+    }
+    assert!(f.errors().iter().any(|m| m.contains("x[5] = NaN")), "{:?}", f.errors());
+    let f = model_exchange();
+    assert_eq!(f.step(0.0, 1e-4), Status::Error);
+    assert!(f.errors().iter().any(|m| m.contains("fmi2DoStep")), "{:?}", f.errors());
+}
+
+/// An FMU state of a Model Exchange instance, serialized and set in another, gives the same
+/// derivatives bit for bit after the same state changes.
+#[test]
+fn model_exchange_fmu_states_round_trip() {
+    let (a, b) = (model_exchange(), model_exchange());
+    let mut x = a.states();
+    let dx = a.derivatives();
+    for (xi, di) in x.iter_mut().zip(&dx) {
+        *xi += 1e-5 * di;
+    }
+    unsafe {
+        assert_eq!(fmi2SetTime(a.c, 1e-5), Status::Ok);
+        assert_eq!(fmi2SetContinuousStates(a.c, x.as_ptr(), x.len()), Status::Ok);
+        let (mut enter, mut stop) = (0, 0);
+        assert_eq!(
+            fmi2CompletedIntegratorStep(a.c, 1, &mut enter, &mut stop),
+            Status::Ok
+        );
+        let mut s: *mut c_void = std::ptr::null_mut();
+        assert_eq!(fmi2GetFMUstate(a.c, &mut s), Status::Ok);
+        let mut size = 0usize;
+        assert_eq!(fmi2SerializedFMUstateSize(a.c, s, &mut size), Status::Ok);
+        let mut bytes = vec![0 as c_char; size];
+        assert_eq!(fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size), Status::Ok);
+        let mut t: *mut c_void = std::ptr::null_mut();
+        let st = fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut t);
+        assert_eq!(st, Status::Ok, "{:?}", b.errors());
+        assert_eq!(fmi2SetFMUstate(b.c, t), Status::Ok, "{:?}", b.errors());
+        fmi2FreeFMUstate(a.c, &mut s);
+        fmi2FreeFMUstate(b.c, &mut t);
+    }
+    let bits = |v: Vec<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(a.states()), bits(b.states()));
+    assert_eq!(bits(a.derivatives()), bits(b.derivatives()));
+    for n in ["mesh[2].F_fwd", "shaft[1].tau", "E_el", "mesh[1].dte_mean"] {
+        assert_eq!(a.real(n).to_bits(), b.real(n).to_bits(), "{n}");
     }
 }

@@ -1,33 +1,82 @@
-//! Model Exchange: the master integrates and locates the events, and the mesh is driven from
+//! Model Exchange: the master integrates and locates the events, and the rig is driven from
 //! outside. `Exchange` holds what the master sets (time and state), evaluates the right-hand
 //! side and the event functions there, and handles the events the master found, as the driver
-//! does inside a Co-Simulation step (`PaperRig::handle_event`).
+//! does inside a Co-Simulation step. It serves any rig that says how its state maps onto the
+//! master's (`ExchangeRig`): the paper's two-wheel rig and the gear train.
 //!
-//! The state vector is the integrator's without its time component (`ME_STATE`). The run's
-//! statistics (dte_mean, F_max...) are accumulated over the points where the master completes
-//! its steps, with the state interpolated linearly between them.
+//! The run's statistics (dte_mean, F_max...) are accumulated over the points where the master
+//! completes its steps, with the state interpolated linearly between them.
 
 use super::simulation::Simulation;
-use super::Stats;
+use super::{Stats, System, Vector};
 use crate::model::contact::{EventFn, N_EVENTS};
 use crate::model::mesh::{EventReport, LawOutOfRange};
 use crate::model::paper_rig::{DDTE, DTE, NY, THETA_A, V_S, W_A, W_EXT, W_LOSS, X_S};
 use crate::model::{Loads, PaperRig, State};
 use serde::{Deserialize, Serialize};
 
-/// The components of the integrator's state that are Model Exchange's states, in order.
+/// The components of the paper rig's state that are Model Exchange's states, in order (the
+/// integrator's state without its time component).
 pub const ME_STATE: [usize; NY - 1] = [THETA_A, DTE, W_A, DDTE, W_EXT, W_LOSS, X_S, V_S];
+
+/// What Model Exchange needs of a rig beyond the driver's `System`: how the master's states
+/// map onto the rig's state, their scales, and new loads from the master.
+pub trait ExchangeRig: System<Error = LawOutOfRange, Report = EventReport> {
+    type Loads: PartialEq;
+    /// The master's states (or their rates, from the state's rates) from the rig's state.
+    fn to_master(&self, y: &Self::State, x: &mut [f64]);
+    /// The rig's state from the master's states (components the master does not see keep
+    /// their values).
+    fn set_from_master(&self, x: &[f64], y: &mut Self::State);
+    /// Scales of the master's states.
+    fn nominals(&self, n: &mut [f64]);
+    fn current_loads(&self) -> &Self::Loads;
+    /// New loads; the rig may move the state (a rigid lock released).
+    fn apply_loads(&mut self, loads: Self::Loads, y: &mut Self::State);
+    /// The name of event function i (messages).
+    fn event_name(&self, i: usize) -> String;
+}
+
+impl ExchangeRig for PaperRig {
+    type Loads = Loads;
+    fn to_master(&self, y: &State, x: &mut [f64]) {
+        for (xj, &i) in x.iter_mut().zip(&ME_STATE) {
+            *xj = y[i];
+        }
+    }
+    fn set_from_master(&self, x: &[f64], y: &mut State) {
+        for (&xj, &i) in x.iter().zip(&ME_STATE) {
+            y[i] = xj;
+        }
+    }
+    /// Those of the driver's absolute tolerances (the static penetration under the current
+    /// loads and its vibration speed; 1 rad and 1 rad/s), 1 J for the work accounts.
+    fn nominals(&self, n: &mut [f64]) {
+        let s = self.abs_tol(1.0);
+        let scale = [s[0], s[1], s[2], s[3], 1.0, 1.0, s[4], s[5]];
+        n.copy_from_slice(&scale[..n.len()]);
+    }
+    fn current_loads(&self) -> &Loads {
+        &self.loads
+    }
+    fn apply_loads(&mut self, loads: Loads, y: &mut State) {
+        self.set_loads(loads, y)
+    }
+    fn event_name(&self, i: usize) -> String {
+        format!("{:?}", (i < N_EVENTS).then(|| EventFn::from_index(i)))
+    }
+}
 
 /// More events at one instant than this is a model that cannot settle (it is reported).
 const MAX_EVENTS_PER_INSTANT: usize = 64;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Exchange {
-    pub rig: PaperRig,
+pub struct Exchange<R: ExchangeRig = PaperRig> {
+    pub rig: R,
     pub t: f64,
-    pub y: State,
+    pub y: R::State,
     /// The last accepted point (completed step or event): the statistics are added up to it.
-    last: (f64, State),
+    last: (f64, R::State),
     /// Completed integrator steps and right-hand-side evaluations (the master's), and events.
     pub stats: Stats,
     jumped: bool,
@@ -38,8 +87,20 @@ impl Exchange {
     /// Continues a simulation built at initialization from its current time and state.
     pub fn new(sim: Simulation) -> Exchange {
         let (t, y) = (sim.time(), sim.driver.state());
+        Exchange::at(sim.rig, t, y)
+    }
+
+    /// `nominals` of a rig before its run starts.
+    pub fn scales(mesh: &PaperRig, n: &mut [f64]) {
+        mesh.nominals(n)
+    }
+}
+
+impl<R: ExchangeRig> Exchange<R> {
+    /// The master takes over the rig at time t and state y.
+    pub fn at(rig: R, t: f64, y: R::State) -> Exchange<R> {
         Exchange {
-            rig: sim.rig,
+            rig,
             t,
             y,
             last: (t, y),
@@ -49,51 +110,53 @@ impl Exchange {
         }
     }
 
+    /// Whether the current and the last accepted point are finite (a restored FMU state).
+    pub fn points_finite(&self) -> bool {
+        let (t0, y0) = &self.last;
+        [self.t, *t0]
+            .iter()
+            .chain(self.y.as_slice())
+            .chain(y0.as_slice())
+            .all(|v| v.is_finite())
+    }
+
     pub fn set_states(&mut self, x: &[f64]) {
-        for (&xj, &i) in x.iter().zip(&ME_STATE) {
-            self.y[i] = xj;
-        }
+        self.rig.set_from_master(x, &mut self.y);
+    }
+
+    /// The master's states at the current point.
+    pub fn states(&self, x: &mut [f64]) {
+        self.rig.to_master(&self.y, x);
     }
 
     pub fn derivatives(&mut self, dx: &mut [f64]) -> Result<(), LawOutOfRange> {
         let dy = self.rates()?;
         self.stats.rhs_evals += 1;
-        for (d, &i) in dx.iter_mut().zip(&ME_STATE) {
-            *d = dy[i];
-        }
+        self.rig.to_master(&dy, dx);
         Ok(())
     }
 
     /// The state's time derivative at the current point.
-    pub fn rates(&self) -> Result<State, LawOutOfRange> {
-        let mut dy = [0.0; NY];
+    pub fn rates(&self) -> Result<R::State, LawOutOfRange> {
+        let mut dy = R::State::zeros();
         self.rig.rhs(&self.y, &mut dy)?;
         Ok(dy)
     }
 
-    /// Scales of the states: those of the driver's absolute tolerances (the static penetration
-    /// under the current loads and its vibration speed; 1 rad and 1 rad/s), 1 J for the work
-    /// accounts.
+    /// Scales of the master's states (`ExchangeRig::nominals`).
     pub fn nominals(&self, n: &mut [f64]) {
-        Exchange::scales(&self.rig, n)
-    }
-
-    /// `nominals` of a mesh.
-    pub fn scales(mesh: &PaperRig, n: &mut [f64]) {
-        let s = mesh.abs_tol(1.0);
-        let scale = [s[0], s[1], s[2], s[3], 1.0, 1.0, s[4], s[5]];
-        n.copy_from_slice(&scale[..n.len()]);
+        self.rig.nominals(n)
     }
 
     /// New inputs or tunable parameters: the right-hand side reads them from now on. A rigid
     /// lock that the new loads would make pull is released at once, which may move the state
     /// (two-sided contact); then the master is asked for an event (`take_jump`).
-    pub fn set_loads(&mut self, loads: Loads) {
-        if loads == self.rig.loads {
+    pub fn set_loads(&mut self, loads: R::Loads) {
+        if &loads == self.rig.current_loads() {
             return;
         }
         let before = self.y;
-        self.rig.set_loads(loads, &mut self.y);
+        self.rig.apply_loads(loads, &mut self.y);
         self.jumped |= self.y != before;
         self.nominals_changed = true;
     }
@@ -124,15 +187,11 @@ impl Exchange {
     fn observe_to_now(&mut self) -> Result<(), LawOutOfRange> {
         let (t0, y0) = self.last;
         let (t1, y1) = (self.t, self.y);
-        if let Some(mut s) = self.rig.stats.clone() {
-            let line = |t: f64| -> State {
-                let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
-                std::array::from_fn(|i| y0[i] + w * (y1[i] - y0[i]))
-            };
-            let r = self.rig.add_statistics(&mut s, t0, t1, &line);
-            self.rig.stats = Some(s);
-            r?;
-        }
+        let line = |t: f64| -> R::State {
+            let w = if t1 > t0 { (t - t0) / (t1 - t0) } else { 1.0 };
+            R::State::from_fn(|i| y0[i] + w * (y1[i] - y0[i]))
+        };
+        self.rig.observe(t0, t1, &line)?;
         self.last = (t1, y1);
         Ok(())
     }
@@ -151,12 +210,12 @@ impl Exchange {
     pub fn handle_events(&mut self, log: &mut dyn FnMut(&EventReport)) -> Result<bool, EventError> {
         self.observe_to_now().map_err(EventError::Law)?;
         let before = self.y;
-        let (mut m, mut rate) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+        let (mut m, mut rate) = (R::Margins::zeros(), R::Margins::zeros());
         for _ in 0..MAX_EVENTS_PER_INSTANT {
             let dy = self.rates().map_err(EventError::Law)?;
             self.rig
                 .event_margins_and_rates(&self.y, &dy, &mut m, &mut rate);
-            let crossed = (0..self.rig.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
+            let crossed = (0..self.rig.n_events()).find(|&i| crossed(m[i], rate[i]));
             let Some(i) = crossed else {
                 self.last = (self.t, self.y);
                 return Ok(self.y != before);
@@ -168,9 +227,9 @@ impl Exchange {
             self.stats.events += 1;
             log(&report);
         }
-        let last = (0..self.rig.n_event_fns()).find(|&i| crossed(m[i], rate[i]));
+        let last = (0..self.rig.n_events()).find(|&i| crossed(m[i], rate[i]));
         Err(EventError::NoSettle {
-            last: format!("{:?}", last.map(EventFn::from_index)),
+            last: last.map_or("None".into(), |i| self.rig.event_name(i)),
         })
     }
 }

@@ -1,7 +1,9 @@
 //! The gear train and its driver together (what the train FMU steps), and the train as the
 //! driver's `System`: the same event location as the single mesh, over every mesh's events.
 
+use super::exchange::ExchangeRig;
 use super::{Driver, DriverError, Method, System, Tolerance};
+use crate::model::contact::{EventFn, N_EVENTS};
 use crate::model::mesh::{EventReport, LawOutOfRange};
 use crate::model::statistics::Statistics;
 use crate::model::train::{Margins, State, Train, TrainLoads, TrainSpec};
@@ -166,5 +168,44 @@ impl TrainSimulation {
     /// The state at the current time.
     pub fn state(&self) -> State {
         self.driver.state()
+    }
+}
+
+/// Model Exchange of the train: the master integrates the states `Train::master_index` lists.
+impl ExchangeRig for Train {
+    type Loads = TrainLoads;
+    fn to_master(&self, y: &State, x: &mut [f64]) {
+        for (j, xj) in x.iter_mut().enumerate() {
+            *xj = self.master_index(j).map_or(0.0, |i| y[i]);
+        }
+    }
+    fn set_from_master(&self, x: &[f64], y: &mut State) {
+        for (j, &xj) in x.iter().enumerate() {
+            if let Some(i) = self.master_index(j) {
+                y[i] = xj;
+            }
+        }
+    }
+    /// The driver's absolute tolerances at rel_tol 1 (`Train::abs_tol`); 1 where that is 0
+    /// (the quadratures, in J) and for elements not in use.
+    fn nominals(&self, n: &mut [f64]) {
+        let atol = self.abs_tol(1.0);
+        for (j, nj) in n.iter_mut().enumerate() {
+            *nj = self
+                .master_index(j)
+                .map(|i| atol[i])
+                .filter(|&a| a > 0.0)
+                .unwrap_or(1.0);
+        }
+    }
+    fn current_loads(&self) -> &TrainLoads {
+        &self.loads
+    }
+    fn apply_loads(&mut self, loads: TrainLoads, y: &mut State) {
+        self.set_loads(loads, y)
+    }
+    fn event_name(&self, i: usize) -> String {
+        let (m, e) = (i / N_EVENTS, i % N_EVENTS);
+        format!("mesh[{}] {:?}", m + 1, EventFn::from_index(e))
     }
 }

@@ -4,7 +4,8 @@
 //! State: body 1's forward angle and speed, the two quadratures (external work, dissipated
 //! energy), then for each edge in the walk from body 1 its relative coordinate and rate: a
 //! mesh's transmission error dte_m = rAb theta_A - rBb theta_B + dte_start_m (its forward
-//! penetration) and d(dte_m)/dt, a shaft's twist theta_a - theta_b and its rate. As in the
+//! penetration) and d(dte_m)/dt, a shaft's twist theta_a - theta_b + twist_start and its rate.
+//! As in the
 //! single mesh, the penetrations are states of their own and keep full precision however far
 //! the bodies turn; the bodies' angles and speeds follow along the tree.
 
@@ -32,6 +33,11 @@ pub const W_LOSS: usize = 3;
 /// The margins: every mesh's event functions, mesh m's from m N_EVENTS on.
 pub const N_MARGINS: usize = MAX_MESHES * N_EVENTS;
 pub type Margins = crate::driver::wide::Wide<N_MARGINS>;
+
+/// The states a Model Exchange master integrates, in the FMU's order: body 1's angle and
+/// speed, the quadratures, every shaft's twist and rate, every mesh's dte and rate, for the
+/// full capacity (elements not in use read 0).
+pub const N_MASTER_STATES: usize = 4 + 2 * (MAX_SHAFTS + MAX_MESHES);
 
 /// Edge k's coordinate in the state (its rate follows it).
 pub const fn edge_index(k: usize) -> usize {
@@ -189,8 +195,10 @@ impl Train {
                             (g.r_bb / g.r_ab, 1.0 / g.r_ab, dte)
                         }
                     }
-                    Edge::Shaft(j) if st.from == spec.shafts[j].a => (1.0, -1.0, 0.0),
-                    Edge::Shaft(_) => (1.0, 1.0, 0.0),
+                    Edge::Shaft(j) if st.from == spec.shafts[j].a => {
+                        (1.0, -1.0, spec.shafts[j].twist_start)
+                    }
+                    Edge::Shaft(j) => (1.0, 1.0, spec.shafts[j].twist_start),
                 };
                 Link {
                     from: st.from,
@@ -220,8 +228,8 @@ impl Train {
             e_start: 0.0,
             stats: statistics.map(|t| vec![Statistics::new(t); n_meshes]),
         };
-        // Each edge's coordinate at the start: a mesh's dte is its dte_start (all angles 0), a
-        // shaft's twist 0; the rates from the bodies' start speeds.
+        // Each edge's coordinate at the start: a mesh's dte is its dte_start, a shaft's twist
+        // its twist_start (all angles 0); the rates from the bodies' start speeds.
         let c = train.cfg.clone();
         for (k, step) in c.tree.steps.iter().enumerate() {
             let i = edge_index(k);
@@ -234,6 +242,7 @@ impl Train {
                 }
                 Edge::Shaft(j) => {
                     let sh = &c.spec.shafts[j];
+                    y[i] = sh.twist_start;
                     y[i + 1] = w(sh.a) - w(sh.b);
                 }
             }
@@ -290,8 +299,13 @@ impl Train {
     pub fn shaft_torque(&self, j: usize, y: &State) -> f64 {
         let sh = &self.cfg.spec.shafts[j];
         let i = edge_index(self.cfg.shaft_step[j]);
-        // The state's twist is theta_a - theta_b whichever end the walk came from.
-        sh.k * (y[i] + sh.twist_start) + sh.d * y[i + 1]
+        // The state's twist is theta_a - theta_b + twist_start whichever end the walk came from.
+        sh.k * y[i] + sh.d * y[i + 1]
+    }
+
+    /// Shaft j's twist theta_a - theta_b + twist_start at y.
+    pub fn shaft_twist(&self, j: usize, y: &State) -> f64 {
+        y[edge_index(self.cfg.shaft_step[j])]
     }
 
     /// Right-hand side with the current modes (gear-train.md §5): each mesh's torques go
@@ -316,7 +330,7 @@ impl Train {
         }
         for (j, sh) in c.spec.shafts.iter().enumerate() {
             let i = edge_index(c.shaft_step[j]);
-            let t = sh.k * (y[i] + sh.twist_start) + sh.d * y[i + 1];
+            let t = sh.k * y[i] + sh.d * y[i + 1];
             torque[sh.a] -= t;
             torque[sh.b] += t;
             p_loss += sh.d * y[i + 1] * y[i + 1];
@@ -486,7 +500,7 @@ impl Train {
         let b = self.bodies(y);
         let mut e = 0.0;
         for (j, sh) in c.spec.shafts.iter().enumerate() {
-            let twist = y[edge_index(c.shaft_step[j])] + sh.twist_start;
+            let twist = y[edge_index(c.shaft_step[j])];
             e += 0.5 * sh.k * twist * twist;
         }
         for (m, mesh) in self.meshes.iter().enumerate() {
@@ -531,6 +545,20 @@ impl Train {
             .compliant_pair_forces(&k)
             .map_err(|e| named(m, e))?;
         Ok(self.meshes[m].readout_from(&k, &pairs, &load))
+    }
+
+    /// Where master state j (`N_MASTER_STATES`) is in the state; None: an element not in use.
+    pub fn master_index(&self, j: usize) -> Option<usize> {
+        let c = &*self.cfg;
+        if j < 4 {
+            return Some(j);
+        }
+        let (k, r) = ((j - 4) / 2, j % 2);
+        if k < MAX_SHAFTS {
+            c.shaft_step.get(k).map(|&s| edge_index(s) + r)
+        } else {
+            c.mesh_step.get(k - MAX_SHAFTS).map(|&s| edge_index(s) + r)
+        }
     }
 
     /// Mesh m's dte (its forward penetration) at y.
