@@ -116,7 +116,11 @@ pub fn expand(text: &str, single: &Table) -> Table {
         // Every mesh's event functions, as the single mesh names them.
         let single_me = single.model.model_exchange.as_ref();
         let indicators = single_me.map_or(&[][..], |s| &s.event_indicators[..]);
-        let meshes = t.elements.iter().find(|e| e.kind == "mesh").map_or(0, |e| e.count);
+        let meshes = t
+            .elements
+            .iter()
+            .find(|e| e.kind == "mesh")
+            .map_or(0, |e| e.count);
         me.event_indicators = (1..=meshes)
             .flat_map(|m| {
                 indicators.iter().map(move |[name, what]| {

@@ -14,7 +14,7 @@ use gear_model::driver::exchange::{EventError, Exchange, ExchangeRig};
 use gear_model::driver::train_simulation::TrainSimulation;
 use gear_model::driver::{DriverError, Method, Stats, Vector};
 use gear_model::model::statistics::{Statistics, Summary};
-use gear_model::model::train::{self, Margins, State, Train, N_MARGINS, N_MASTER_STATES, NY};
+use gear_model::model::train::{self, Margins, State, Train, NY, N_MARGINS, N_MASTER_STATES};
 use gear_model::variables as single;
 
 // The table's states and event indicators are the model's, in its order.
@@ -327,9 +327,7 @@ fn write_outputs(
     let b = train.bodies(y);
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
     for m in 0..train.meshes.len() {
-        let r = train
-            .mesh_readout_at(m, y, &b)
-            .map_err(|e| e.to_string())?;
+        let r = train.mesh_readout_at(m, y, &b).map_err(|e| e.to_string())?;
         let run = stats
             .as_ref()
             .map_or(Summary::default(), |s| s[m].summary());

@@ -433,12 +433,19 @@ fn model_exchange_states_are_the_variables_the_table_declares() {
         assert_eq!(f.real(s).to_bits(), x[k].to_bits(), "{s}");
         assert_eq!(f.real(d).to_bits(), dx[k].to_bits(), "{d}");
         // The default train: 4 bodies, shaft 1 and meshes 1, 2 in use.
-        let unused = ["shaft[2]", "shaft[3]", "shaft[4]", "shaft[5]", "shaft[6]", "shaft[7]"]
-            .iter()
-            .chain(&["mesh[3]", "mesh[4]", "mesh[5]", "mesh[6]"])
-            .any(|e| s.starts_with(e));
+        let unused = [
+            "shaft[2]", "shaft[3]", "shaft[4]", "shaft[5]", "shaft[6]", "shaft[7]",
+        ]
+        .iter()
+        .chain(&["mesh[3]", "mesh[4]", "mesh[5]", "mesh[6]"])
+        .any(|e| s.starts_with(e));
         if unused {
-            assert!(x[k] == 0.0 && dx[k] == 0.0, "{s} = {}, {d} = {}", x[k], dx[k]);
+            assert!(
+                x[k] == 0.0 && dx[k] == 0.0,
+                "{s} = {}, {d} = {}",
+                x[k],
+                dx[k]
+            );
         }
     }
     assert_eq!(f.real("der(body[1].theta)"), f.real("body[1].w"));
@@ -451,7 +458,10 @@ fn model_exchange_states_are_the_variables_the_table_declares() {
     let mut z = vec![f64::NAN; N_EVENT_INDICATORS];
     let mut n = vec![f64::NAN; STATES.len()];
     unsafe {
-        assert_eq!(fmi2GetEventIndicators(f.c, z.as_mut_ptr(), z.len()), Status::Ok);
+        assert_eq!(
+            fmi2GetEventIndicators(f.c, z.as_mut_ptr(), z.len()),
+            Status::Ok
+        );
         assert_eq!(
             fmi2GetNominalsOfContinuousStates(f.c, n.as_mut_ptr(), n.len()),
             Status::Ok
@@ -460,7 +470,10 @@ fn model_exchange_states_are_the_variables_the_table_declares() {
     assert!(z.iter().all(|v| v.is_finite()));
     assert!(n.iter().all(|v| v.is_finite() && *v > 0.0), "{n:?}");
     // The dte's nominal is its static penetration: micrometres, not 1.
-    let dte1 = STATES.iter().position(|s| s.0.info().name == "mesh[1].dte").unwrap();
+    let dte1 = STATES
+        .iter()
+        .position(|s| s.0.info().name == "mesh[1].dte")
+        .unwrap();
     assert!(n[dte1] > 1e-8 && n[dte1] < 1e-4, "{}", n[dte1]);
 }
 
@@ -473,16 +486,31 @@ fn model_exchange_refuses_bad_input() {
     unsafe {
         assert_eq!(fmi2SetContinuousStates(f.c, x.as_ptr(), 3), Status::Error);
     }
-    assert!(f.errors().iter().any(|m| m.contains("nx = 3")), "{:?}", f.errors());
+    assert!(
+        f.errors().iter().any(|m| m.contains("nx = 3")),
+        "{:?}",
+        f.errors()
+    );
     let f = model_exchange();
     x[5] = f64::NAN;
     unsafe {
-        assert_eq!(fmi2SetContinuousStates(f.c, x.as_ptr(), x.len()), Status::Error);
+        assert_eq!(
+            fmi2SetContinuousStates(f.c, x.as_ptr(), x.len()),
+            Status::Error
+        );
     }
-    assert!(f.errors().iter().any(|m| m.contains("x[5] = NaN")), "{:?}", f.errors());
+    assert!(
+        f.errors().iter().any(|m| m.contains("x[5] = NaN")),
+        "{:?}",
+        f.errors()
+    );
     let f = model_exchange();
     assert_eq!(f.step(0.0, 1e-4), Status::Error);
-    assert!(f.errors().iter().any(|m| m.contains("fmi2DoStep")), "{:?}", f.errors());
+    assert!(
+        f.errors().iter().any(|m| m.contains("fmi2DoStep")),
+        "{:?}",
+        f.errors()
+    );
 }
 
 /// An FMU state of a Model Exchange instance, serialized and set in another, gives the same
@@ -497,7 +525,10 @@ fn model_exchange_fmu_states_round_trip() {
     }
     unsafe {
         assert_eq!(fmi2SetTime(a.c, 1e-5), Status::Ok);
-        assert_eq!(fmi2SetContinuousStates(a.c, x.as_ptr(), x.len()), Status::Ok);
+        assert_eq!(
+            fmi2SetContinuousStates(a.c, x.as_ptr(), x.len()),
+            Status::Ok
+        );
         let (mut enter, mut stop) = (0, 0);
         assert_eq!(
             fmi2CompletedIntegratorStep(a.c, 1, &mut enter, &mut stop),
@@ -508,7 +539,10 @@ fn model_exchange_fmu_states_round_trip() {
         let mut size = 0usize;
         assert_eq!(fmi2SerializedFMUstateSize(a.c, s, &mut size), Status::Ok);
         let mut bytes = vec![0 as c_char; size];
-        assert_eq!(fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size), Status::Ok);
+        assert_eq!(
+            fmi2SerializeFMUstate(a.c, s, bytes.as_mut_ptr(), size),
+            Status::Ok
+        );
         let mut t: *mut c_void = std::ptr::null_mut();
         let st = fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut t);
         assert_eq!(st, Status::Ok, "{:?}", b.errors());
