@@ -24,7 +24,15 @@ import subprocess
 import fmpy
 import numpy as np
 import pytest
+from fmpy import calloc, free
 from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
 
 import scene_compare as S
 import train_scene_compare as TS
@@ -114,8 +122,17 @@ def simulate(unzip_dir, md, start_values):
         messages.append((status, (category or b"").decode("utf-8", "replace"),
                          (message or b"").decode("utf-8", "replace")))
 
-    fmu = fmpy.instantiate_fmu(unzip_dir, md, "CoSimulation", logger=log,
-                               fmi_call_logger=calls.append)
+    # The logger goes into the callbacks directly: instantiate_fmu(logger=...) routes it through
+    # FMPy's native logger proxy, a process-wide global that outlives this function's logger
+    # and that later instances with FMPy's default callbacks call too.
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(log)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzip_dir,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="train",
+                    fmiCallLogger=calls.append)
+    fmu.instantiate(callbacks=callbacks)
     try:
         fmpy.simulate_fmu(unzip_dir, model_description=md, fmu_instance=fmu,
                           start_values=start_values, stop_time=1e-3, output_interval=1e-3)
