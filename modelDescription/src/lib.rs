@@ -39,7 +39,9 @@ pub struct ModelInfo {
     pub tolerance: Option<f64>,
     pub log_categories: Vec<[String; 2]>,
     /// "none": no output depends on an input at a communication point (ModelStructure lists
-    /// the outputs with empty dependencies); absent: the default, dependent on all knowns.
+    /// the outputs with empty dependencies); "inputs": every output depends on exactly the
+    /// inputs (a direct feedthrough, e.g. a massless shaft); absent: the default, dependent on
+    /// all knowns.
     #[serde(default)]
     pub output_dependencies: Option<String>,
     /// The variableNamingConvention ("flat" unless given: "structured" for `body[1].J`).
@@ -315,6 +317,10 @@ pub(crate) fn check(t: &Table) {
             "the event indicators' value references {block:?} and 0 (FMI 3.0's time) must be free"
         );
     }
+    assert!(
+        matches!(t.model.output_dependencies.as_deref(), None | Some("none" | "inputs")),
+        "output_dependencies must be \"none\", \"inputs\" or absent"
+    );
     let derivatives = t.vars.iter().filter(|v| v.derivative_of.is_some()).count();
     assert_eq!(
         t.model.model_exchange.is_some(),
@@ -504,11 +510,21 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
 
     put(Event::Start(BytesStart::new("ModelStructure")));
     put(Event::Start(BytesStart::new("Outputs")));
-    let none = t.model.output_dependencies.as_deref() == Some("none");
+    let dependencies = match t.model.output_dependencies.as_deref() {
+        Some("none") => Some(String::new()),
+        Some("inputs") => Some(
+            indices(t, |v| v.causality == "input")
+                .iter()
+                .map(|i| i.to_string())
+                .collect::<Vec<_>>()
+                .join(" "),
+        ),
+        _ => None,
+    };
     for i in indices(t, |v| v.causality == "output") {
         let mut attrs = vec![("index", i.to_string())];
-        if none {
-            attrs.push(("dependencies", String::new()));
+        if let Some(d) = &dependencies {
+            attrs.push(("dependencies", d.clone()));
         }
         put(Event::Empty(elem("Unknown", &attrs)));
     }
