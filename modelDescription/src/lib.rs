@@ -318,7 +318,10 @@ pub(crate) fn check(t: &Table) {
         );
     }
     assert!(
-        matches!(t.model.output_dependencies.as_deref(), None | Some("none" | "inputs")),
+        matches!(
+            t.model.output_dependencies.as_deref(),
+            None | Some("none" | "inputs")
+        ),
         "output_dependencies must be \"none\", \"inputs\" or absent"
     );
     let derivatives = t.vars.iter().filter(|v| v.derivative_of.is_some()).count();
