@@ -471,7 +471,7 @@ impl Slave for SpurGearMesh {
         ex.rig.mesh.describe_events = debug_events;
         let t = ex.t;
         let mut texts = Vec::new();
-        let handled = ex.handle_events(&mut |r| {
+        let settled = ex.settle(&mut |r| {
             if debug_events {
                 texts.push(format!("t = {t:.12} s: {}", r.what));
             }
@@ -479,27 +479,23 @@ impl Slave for SpurGearMesh {
         for e in &texts {
             log.log(Status::Ok, LOG_EVENTS, e);
         }
-        let ex = self.exchange()?;
-        let update = EventUpdate {
-            states_changed: ex.take_jump(),
-            nominals_changed: ex.take_nominals_changed(),
-            next_event_time: None,
-        };
         self.fresh = false;
-        let changed = handled.map_err(|e: EventError| error(format!("at t = {t} s: {e}")))?;
+        let s = settled.map_err(|e: EventError| error(format!("at t = {t} s: {e}")))?;
         Ok(EventUpdate {
-            states_changed: update.states_changed || changed,
-            ..update
+            states_changed: s.states_changed,
+            nominals_changed: s.nominals_changed,
+            next_event_time: None,
         })
     }
 
     fn me_completed_integrator_step(&mut self) -> Result<bool, Failure> {
         let ex = self.exchange()?;
         let t = ex.t;
-        ex.completed_step()
+        let enter = ex
+            .complete_step()
             .map_err(|e| error(format!("at t = {t} s: {e}")))?;
         self.fresh = false;
-        Ok(self.exchange()?.jump_pending())
+        Ok(enter)
     }
 }
 

@@ -196,6 +196,25 @@ impl<R: ExchangeRig> Exchange<R> {
         Ok(())
     }
 
+    /// The master accepted its step (`completed_step`); returns whether it should enter event
+    /// mode (the state jumped outside the events it located).
+    pub fn complete_step(&mut self) -> Result<bool, LawOutOfRange> {
+        self.completed_step()?;
+        Ok(self.jump_pending())
+    }
+
+    /// Event mode: handles the crossed events (`handle_events`) and says what changed since the
+    /// master last asked, a jump from new loads included.
+    pub fn settle(&mut self, log: &mut dyn FnMut(&EventReport)) -> Result<Settled, EventError> {
+        let handled = self.handle_events(log);
+        let jumped = self.take_jump();
+        let nominals_changed = self.take_nominals_changed();
+        Ok(Settled {
+            states_changed: jumped || handled?,
+            nominals_changed,
+        })
+    }
+
     /// Handles every event function that has crossed at the current point, one after the other
     /// until none has: each handled event may change the others' functions (a pair switch moves
     /// the gates). `log` receives each. Returns whether the state changed (an impact changes the
@@ -232,6 +251,15 @@ impl<R: ExchangeRig> Exchange<R> {
             last: last.map_or("None".into(), |i| self.rig.event_name(i)),
         })
     }
+}
+
+/// What event mode changed (`Exchange::settle`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settled {
+    /// The continuous states jumped (an impact, a released lock).
+    pub states_changed: bool,
+    /// The nominals changed (they scale with the loads).
+    pub nominals_changed: bool,
 }
 
 /// Margins with a rate are lengths in metres or dimensionless factors of order 1, and the
