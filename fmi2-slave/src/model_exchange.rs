@@ -142,43 +142,74 @@ pub unsafe fn set_continuous_states<S: Slave>(c: Component, x: *const f64, nx: u
     })
 }
 
-/// The getters of state-sized or indicator-sized arrays.
+/// The getters of state-sized or indicator-sized arrays. A value that is not finite (states or
+/// a time set beyond what the model can evaluate) is an error naming the element (`label`):
+/// the master never receives NaN or infinity with fmi2OK.
 unsafe fn get_array<S: Slave>(
     c: Component,
     func: &str,
     p: *mut f64,
     n: usize,
     (expected, what): (usize, &'static str),
+    label: fn(usize) -> String,
     get: impl FnOnce(&mut S, &mut [f64]) -> Result<(), Failure>,
 ) -> Status {
     with_me::<S>(c, func, allowed::ME_GET, |i| {
         sized(n, expected, i.arg(what))?;
         let out = slice_mut(p, n, "the array")?;
         get(&mut i.slave, out)?;
+        if let Some(k) = out.iter().position(|v| !v.is_finite()) {
+            return Err(error(format!(
+                "{} = {} is not finite at t = {}: the states or the time set are outside what the model can evaluate",
+                label(k),
+                out[k],
+                i.slave.time()
+            )));
+        }
         Ok(Status::Ok)
     })
 }
 
 pub unsafe fn get_derivatives<S: Slave>(c: Component, dx: *mut f64, nx: usize) -> Status {
     let size = (S::N_STATES, "nx");
-    get_array::<S>(c, "fmi2GetDerivatives", dx, nx, size, S::me_derivatives)
+    let label = |k| format!("der({})", S::state_name(k));
+    get_array::<S>(
+        c,
+        "fmi2GetDerivatives",
+        dx,
+        nx,
+        size,
+        label,
+        S::me_derivatives,
+    )
 }
 
 pub unsafe fn get_event_indicators<S: Slave>(c: Component, z: *mut f64, ni: usize) -> Status {
     let size = (S::N_EVENT_INDICATORS, "ni");
+    let label = |k| format!("event indicator {k}");
     get_array::<S>(
         c,
         "fmi2GetEventIndicators",
         z,
         ni,
         size,
+        label,
         S::me_event_indicators,
     )
 }
 
 pub unsafe fn get_continuous_states<S: Slave>(c: Component, x: *mut f64, nx: usize) -> Status {
     let size = (S::N_STATES, "nx");
-    get_array::<S>(c, "fmi2GetContinuousStates", x, nx, size, S::me_states)
+    let label = |k| S::state_name(k).to_string();
+    get_array::<S>(
+        c,
+        "fmi2GetContinuousStates",
+        x,
+        nx,
+        size,
+        label,
+        S::me_states,
+    )
 }
 
 pub unsafe fn get_nominals_of_continuous_states<S: Slave>(
@@ -187,12 +218,14 @@ pub unsafe fn get_nominals_of_continuous_states<S: Slave>(
     nx: usize,
 ) -> Status {
     let size = (S::N_STATES, "nx");
+    let label = |k| format!("the nominal of {}", S::state_name(k));
     get_array::<S>(
         c,
         "fmi2GetNominalsOfContinuousStates",
         x,
         nx,
         size,
+        label,
         S::me_nominals,
     )
 }

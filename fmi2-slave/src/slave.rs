@@ -150,6 +150,11 @@ pub trait Slave: Clone + 'static {
     /// FMI 3.0 declares the event indicators as variables: their value references start here.
     const EVENT_INDICATOR_VR0: u32 = 0;
 
+    /// The name of continuous state k (messages).
+    fn state_name(_k: usize) -> &'static str {
+        "a continuous state"
+    }
+
     /// fmi2ExitInitializationMode of a Model Exchange instance: afterwards the master
     /// integrates, and the model is in event mode.
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {

@@ -657,6 +657,12 @@ impl Slave for SpurGearTrain {
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
 
+    fn state_name(k: usize) -> &'static str {
+        STATES
+            .get(k)
+            .map_or("a continuous state", |s| s.0.info().name)
+    }
+
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {
         let sim = self.build()?;
         let (t, y) = (sim.time(), sim.state());

@@ -557,3 +557,164 @@ fn model_exchange_fmu_states_round_trip() {
         assert_eq!(a.real(n).to_bits(), b.real(n).to_bits(), "{n}");
     }
 }
+
+/// One call of a random Model Exchange sequence.
+#[derive(Clone, Debug)]
+enum MeCall {
+    SetTime(f64),
+    /// Sets state k to x (the others as they are).
+    SetState(usize, f64),
+    /// Scales state k by 1 + r (a master's small correction).
+    Nudge(usize, f64),
+    /// Moves every state along its derivative by h (an explicit Euler step).
+    Euler(f64),
+    Derivatives,
+    Indicators,
+    Nominals,
+    EnterEventMode,
+    NewDiscreteStates,
+    EnterContinuousTimeMode,
+    Completed,
+    SetReal(&'static str, f64),
+    Get(&'static str),
+}
+
+fn me_call() -> impl Strategy<Value = MeCall> {
+    let value = prop_oneof![
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        Just(1e300),
+        Just(-1e300),
+        Just(0.0),
+        -1e-3..1e-3f64,
+        -1e3..1e3f64,
+    ];
+    let settable = prop::sample::select(vec![
+        "body[1].tau",
+        "body[4].tau",
+        "mesh[1].chi",
+        "mesh[2].mu",
+    ]);
+    let outputs = prop::sample::select(vec![
+        "mesh[1].dte",
+        "mesh[2].F_fwd",
+        "shaft[1].twist",
+        "der(mesh[1].dte_rate)",
+        "der(body[1].w)",
+        "energy_residual",
+        "mesh[1].dte_mean",
+    ]);
+    // Mostly the calls of a working master, now and then a hostile one: an instance is done
+    // after its first fmi2Error.
+    let others = prop_oneof![
+        Just(MeCall::Derivatives),
+        Just(MeCall::Indicators),
+        Just(MeCall::Nominals),
+        Just(MeCall::EnterEventMode),
+        Just(MeCall::NewDiscreteStates),
+        Just(MeCall::EnterContinuousTimeMode),
+        (settable, value.clone()).prop_map(|(n, x)| MeCall::SetReal(n, x)),
+        outputs.prop_map(MeCall::Get),
+    ];
+    prop_oneof![
+        1 => prop_oneof![Just(f64::NAN), Just(-1.0), 0.0..0.01f64].prop_map(MeCall::SetTime),
+        1 => (0..STATES.len(), value).prop_map(|(k, x)| MeCall::SetState(k, x)),
+        4 => (0..STATES.len(), -1e-3..1e-3f64).prop_map(|(k, r)| MeCall::Nudge(k, r)),
+        8 => prop_oneof![9 => 1e-7..2e-6f64, 1 => Just(1e-2)].prop_map(MeCall::Euler),
+        2 => Just(MeCall::Completed),
+        6 => others,
+    ]
+}
+
+/// Whether a status is one of those a call may return, and an array read with fmi2OK is finite.
+fn finite_if_ok(status: Status, values: &[f64]) -> bool {
+    status != Status::Ok || values.iter().all(|v| v.is_finite())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Model Exchange, whatever states, times and calls a master sends: never a crash or a
+    /// panic across the boundary, and nothing read with fmi2OK is NaN or infinite.
+    #[test]
+    fn random_model_exchange_sequences_never_crash(calls in prop::collection::vec(me_call(), 1..60)) {
+        let f = model_exchange();
+        let n = STATES.len();
+        let mut t = 0.0;
+        for c in calls {
+            let status = unsafe {
+                match c {
+                    MeCall::SetTime(x) => {
+                        let s = fmi2SetTime(f.c, x);
+                        if s == Status::Ok {
+                            t = x;
+                        }
+                        s
+                    }
+                    MeCall::SetState(k, _) | MeCall::Nudge(k, _) => {
+                        let mut v = vec![0.0; n];
+                        let s = fmi2GetContinuousStates(f.c, v.as_mut_ptr(), n);
+                        v[k] = match c {
+                            MeCall::Nudge(_, r) => v[k] * (1.0 + r),
+                            MeCall::SetState(_, x) => x,
+                            _ => unreachable!(),
+                        };
+                        if s == Status::Ok { fmi2SetContinuousStates(f.c, v.as_ptr(), n) } else { s }
+                    }
+                    MeCall::Euler(h) => {
+                        let (mut x, mut dx) = (vec![0.0; n], vec![0.0; n]);
+                        let s = fmi2GetContinuousStates(f.c, x.as_mut_ptr(), n);
+                        let d = fmi2GetDerivatives(f.c, dx.as_mut_ptr(), n);
+                        prop_assert!(finite_if_ok(d, &dx), "derivatives {dx:?}");
+                        if s == Status::Ok && d == Status::Ok {
+                            for (xi, di) in x.iter_mut().zip(&dx) {
+                                *xi += h * di;
+                            }
+                            t += h;
+                            fmi2SetTime(f.c, t);
+                            fmi2SetContinuousStates(f.c, x.as_ptr(), n)
+                        } else {
+                            d
+                        }
+                    }
+                    MeCall::Derivatives => {
+                        let mut dx = vec![0.0; n];
+                        let s = fmi2GetDerivatives(f.c, dx.as_mut_ptr(), n);
+                        prop_assert!(finite_if_ok(s, &dx), "derivatives {dx:?}");
+                        s
+                    }
+                    MeCall::Indicators => {
+                        let mut z = vec![0.0; N_EVENT_INDICATORS];
+                        let s = fmi2GetEventIndicators(f.c, z.as_mut_ptr(), z.len());
+                        prop_assert!(finite_if_ok(s, &z), "indicators");
+                        s
+                    }
+                    MeCall::Nominals => {
+                        let mut v = vec![0.0; n];
+                        let s = fmi2GetNominalsOfContinuousStates(f.c, v.as_mut_ptr(), n);
+                        prop_assert!(finite_if_ok(s, &v), "nominals {v:?}");
+                        s
+                    }
+                    MeCall::EnterEventMode => fmi2EnterEventMode(f.c),
+                    MeCall::NewDiscreteStates => {
+                        let mut info = fmi2_slave::EventInfo::default();
+                        fmi2NewDiscreteStates(f.c, &mut info)
+                    }
+                    MeCall::EnterContinuousTimeMode => fmi2EnterContinuousTimeMode(f.c),
+                    MeCall::Completed => {
+                        let (mut enter, mut stop) = (0, 0);
+                        fmi2CompletedIntegratorStep(f.c, 1, &mut enter, &mut stop)
+                    }
+                    MeCall::SetReal(name, x) => f.set_real(name, x),
+                    MeCall::Get(name) => {
+                        let mut x = 0.0;
+                        let s = fmi2GetReal(f.c, &vr_of(name), 1, &mut x);
+                        prop_assert!(finite_if_ok(s, &[x]), "{name} = {x}");
+                        s
+                    }
+                }
+            };
+            prop_assert!(matches!(status, Status::Ok | Status::Warning | Status::Discard | Status::Error), "{status:?}");
+        }
+    }
+}
