@@ -250,14 +250,16 @@ class Slave:
             shutil.rmtree(self.unzip, ignore_errors=True)
 
 
-def run_monolithic(train_fmu, t_stop, dt_out, rel_tol=REL_TOL):
+def run_monolithic(train_fmu, t_stop, dt_out, rel_tol=REL_TOL, extra=()):
     """SpurGearTrain alone, stepped at the output interval (its inputs are constant, so the
     internal integration does not see the communication points).  Returns the run and its wall
     time in "_seconds" (instantiation included)."""
-    t0 = _time.perf_counter()
     s = system(rel_tol)
+    t0 = _time.perf_counter()
+    c0 = _time.process_time()
     tr = Slave(train_fmu, "train", {k: v for k, v in s["train"].items()})
     names = ["mesh[1].dte", "mesh[2].dte", "shaft[1].tau", "body[1].w", "body[2].w", "body[3].w", "body[4].w"]
+    names += list(extra)
     refs = tr.refs(names)
     n = int(round(t_stop / dt_out))
     rec = np.empty((n + 1, len(names)))
@@ -266,14 +268,15 @@ def run_monolithic(train_fmu, t_stop, dt_out, rel_tol=REL_TOL):
         tr.fmu.doStep(currentCommunicationPoint=k * dt_out, communicationStepSize=dt_out)
         rec[k + 1] = tr.fmu.getReal(refs)
     tr.close()
-    out = {q: rec[:, i] for i, q in enumerate(QUANTITIES)}
+    out = {q: rec[:, i] for i, q in enumerate(QUANTITIES + list(extra))}
     out["time"] = dt_out * np.arange(n + 1)
     out["_seconds"] = _time.perf_counter() - t0
+    out["_cpu"] = _time.process_time() - c0
     return out
 
 
 def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=REL_TOL, fmus=None,
-               blowup=1e7):
+               blowup=1e7, delay=0, start="state"):
     """A fixed-step master of our own on the three FMUs.
 
     scheme="jacobi": at t_k every gear's outputs go through the shaft (a direct feedthrough,
@@ -285,10 +288,17 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
         (order 1), from the shaft law: d tau/dt = k (w_a - w_b) + d (alpha_a - alpha_b), the
         accelerations from each wheel's torque balance J alpha = tau_mesh + tau_in - c w.
         derivatives=2 adds the second derivative k (alpha_a - alpha_b).
+    delay=1 (Jacobi, held inputs): the torque over [t_k, t_k+1] is the shaft's law at t_{k-1},
+        what libcosim and FMPy's simulate_ssp do with a direct-feedthrough FMU between two others
+        (they read the shaft's outputs after its step, computed from the inputs set before it).
+        start="state": the first two steps take the law at t_0 (libcosim); start="fmpy": the
+        first step has zero torques and the second the law at zero inputs, k twist_start
+        (simulate_ssp starts every connection at 0).
     Records on the grid dt_out (default: max(h, 1e-4)); stops early (and sets "_unstable") when
     the shaft torque exceeds blowup.  "_seconds": wall time."""
-    t0 = _time.perf_counter()
     s = system(rel_tol)
+    t0 = _time.perf_counter()
+    c0 = _time.process_time()
     f = fmus or fmu_paths()
     g1 = Slave(f["gear"], "gear1", s["gear1"])
     g2 = Slave(f["gear"], "gear2", s["gear2"])
@@ -321,9 +331,18 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
         o1, o2 = g1.fmu.getReal(r1), g2.fmu.getReal(r2)
         tau = k_s * (o1[2] - o2[0] + tw) + d_s * (o1[3] - o2[1])
         record(0.0, o1, o2, tau)
+        if delay and (derivatives or scheme != "jacobi"):
+            raise ValueError("delay=1 models the standard masters: Jacobi with held inputs")
+        prev = None
         for k in range(n):
             t = k * h
             tau, dtau, ddtau = shaft(o1, o2)
+            if delay:
+                held = prev if prev is not None else tau
+                prev = tau
+                if start == "fmpy" and k < 2:
+                    held = 0.0 if k == 0 else k_s * tw
+                tau = held
             g1.fmu.setReal([vr_tauB1], [-tau])
             if derivatives:
                 g1.fmu.setRealInputDerivatives([vr_tauB1], [1], [-dtau])
@@ -362,6 +381,7 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
     out = {q: a[:, i + 1] for i, q in enumerate(QUANTITIES)}
     out["time"] = a[:, 0]
     out["_seconds"] = _time.perf_counter() - t0
+    out["_cpu"] = _time.process_time() - c0
     out["_unstable"] = unstable
     return out
 
@@ -386,6 +406,7 @@ def run_libcosim_ssp(ssp, h, t_stop):
     from libcosimpy.CosimObserver import CosimObserver
 
     t0 = _time.perf_counter()
+    c0 = _time.process_time()
     n = int(round(t_stop / h))
     ex = CosimExecution.from_ssp_file(str(ssp), step_size=_ns(h))
     idx = {i.name.decode(): i.index for i in ex.slave_infos()}
@@ -406,6 +427,7 @@ def run_libcosim_ssp(ssp, h, t_stop):
         out[q] = np.array(values)
         out["time"] = np.array(times) * 1e-9
     out["_seconds"] = _time.perf_counter() - t0
+    out["_cpu"] = _time.process_time() - c0
     return out
 
 
@@ -417,6 +439,7 @@ def run_fmpy_ssp(ssp, h, t_stop):
     from fmpy.ssp.ssd import Parameter, ParameterSet
 
     t0 = _time.perf_counter()
+    c0 = _time.process_time()
     n = int(round(t_stop / h))
     ps = ParameterSet(name="two-stage")
     for comp, values in ssd_parameters().items():
@@ -430,6 +453,7 @@ def run_fmpy_ssp(ssp, h, t_stop):
     out = {q: np.asarray(rows[f"{c}.{v}"], dtype=float) for q, (c, v) in zip(QUANTITIES, RECORDED)}
     out["time"] = h * np.arange(1, n + 1)
     out["_seconds"] = _time.perf_counter() - t0
+    out["_cpu"] = _time.process_time() - c0
     return out
 
 
