@@ -282,8 +282,9 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
     scheme="jacobi": at t_k every gear's outputs go through the shaft (a direct feedthrough,
         evaluated at once) to both gears' inputs; both gears step to t_k + h.  The order-1 coupling
         the standard masters intend (libcosim and FMPy add one step of delay: docs/cosim.md).
-    scheme="gauss-seidel": gear1 steps first; the shaft torque for gear2's step is evaluated with
-        gear1's state at t_{k+1} (extrapolated from neither: gear2 still sees gear2's state at t_k).
+    scheme="gauss-seidel": gear1 steps first; the shaft torque for gear2's step is the law with
+        gear1's new state (t_{k+1}) and gear2's old one (t_k), as a sequential master passes the
+        newest outputs; the twist then mixes two times (an error of about k w h: docs/cosim.md).
     derivatives=1: with each torque, its time derivative through fmi2SetRealInputDerivatives
         (order 1), from the shaft law: d tau/dt = k (w_a - w_b) + d (alpha_a - alpha_b), the
         accelerations from each wheel's torque balance J alpha = tau_mesh + tau_in - c w.
@@ -295,7 +296,7 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
         first step has zero torques and the second the law at zero inputs, k twist_start
         (simulate_ssp starts every connection at 0).
     Records on the grid dt_out (default: max(h, 1e-4)); stops early (and sets "_unstable") when
-    the shaft torque exceeds blowup.  "_seconds": wall time."""
+    the shaft torque exceeds blowup.  "_seconds": wall time, "_cpu": CPU time (after system())."""
     s = system(rel_tol)
     t0 = _time.perf_counter()
     c0 = _time.process_time()
