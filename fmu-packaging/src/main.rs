@@ -4,6 +4,9 @@
 //! references) and documentation/index.html with a figure of the mesh geometry drawn from the
 //! model's own geometry code.
 //!
+//! With `FMU_WINDOWS_DIR` set (tools/windows.sh), both FMUs also carry the Windows DLL:
+//! binaries/win64/SpurGearMesh.dll and binaries/x86_64-windows/SpurGearMesh.dll.
+//!
 //! Usage: `cargo run -p fmu-packaging --release` (from anywhere in the workspace; the default
 //! binary of the package, beside `package-controller`). It prints the FMI 2.0 FMU's path on
 //! stdout (scripts read it) and the FMI 3.0 one's on stderr.
@@ -14,26 +17,29 @@ use spur_gear_mesh::variables::Params;
 
 fn main() {
     let so = fmu_packaging::release_binary("spur_gear_mesh");
+    let dll = fmu_packaging::windows_binary("spur_gear_mesh");
     let table = load();
     let xml = model_description_xml(&table, env!("CARGO_PKG_VERSION"));
     let doc = documentation(&table);
-    let path = fmu_packaging::write_fmu(
-        "SpurGearMesh",
-        &[
-            ("modelDescription.xml", xml.as_bytes()),
-            ("binaries/linux64/SpurGearMesh.so", &so),
-            ("documentation/index.html", doc.as_bytes()),
-        ],
-    );
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("modelDescription.xml", xml.as_bytes()),
+        ("binaries/linux64/SpurGearMesh.so", &so),
+        ("documentation/index.html", doc.as_bytes()),
+    ];
+    if let Some(dll) = &dll {
+        files.push(("binaries/win64/SpurGearMesh.dll", dll));
+    }
+    let path = fmu_packaging::write_fmu("SpurGearMesh", &files);
     let xml3 = model_description_xml3(&table, env!("CARGO_PKG_VERSION"));
-    let path3 = fmu_packaging::write_fmu(
-        "SpurGearMesh-fmi3",
-        &[
-            ("modelDescription.xml", xml3.as_bytes()),
-            ("binaries/x86_64-linux/SpurGearMesh.so", &so),
-            ("documentation/index.html", doc.as_bytes()),
-        ],
-    );
+    let mut files3: Vec<(&str, &[u8])> = vec![
+        ("modelDescription.xml", xml3.as_bytes()),
+        ("binaries/x86_64-linux/SpurGearMesh.so", &so),
+        ("documentation/index.html", doc.as_bytes()),
+    ];
+    if let Some(dll) = &dll {
+        files3.push(("binaries/x86_64-windows/SpurGearMesh.dll", dll));
+    }
+    let path3 = fmu_packaging::write_fmu("SpurGearMesh-fmi3", &files3);
     eprintln!("FMI 3.0: {}", path3.display());
     println!("{}", path.display());
 }

@@ -2,6 +2,8 @@
 //! from that crate's variable table, and documentation/index.html with the law, the sign
 //! conventions and every variable.
 //!
+//! With `FMU_WINDOWS_DIR` set (tools/windows.sh) it also carries binaries/win64/<id>.dll.
+//!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-shaft`; prints the path.
 
 use torsional_shaft::variables::{model_description_xml, Causality, MODEL_NAME, VARIABLES};
@@ -9,15 +11,19 @@ use torsional_shaft::variables::{model_description_xml, Causality, MODEL_NAME, V
 fn main() {
     let so = fmu_packaging::release_binary("torsional_shaft");
     let binary = format!("binaries/linux64/{MODEL_NAME}.so");
+    let dll = fmu_packaging::windows_binary("torsional_shaft");
+    let win = format!("binaries/win64/{MODEL_NAME}.dll");
     let doc = documentation();
-    let path = fmu_packaging::write_fmu(
-        MODEL_NAME,
-        &[
-            ("modelDescription.xml", model_description_xml().as_bytes()),
-            (&binary, &so),
-            ("documentation/index.html", doc.as_bytes()),
-        ],
-    );
+    let xml = model_description_xml();
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("modelDescription.xml", xml.as_bytes()),
+        (&binary, &so),
+        ("documentation/index.html", doc.as_bytes()),
+    ];
+    if let Some(dll) = &dll {
+        files.push((&win, dll));
+    }
+    let path = fmu_packaging::write_fmu(MODEL_NAME, &files);
     println!("{}", path.display());
 }
 

@@ -4,6 +4,9 @@
 //! documentation/index.html with the topology rules and a drawing of the default train
 //! (docs/train-layout.png, made by tools/train_layout.py from the same defaults).
 //!
+//! With `FMU_WINDOWS_DIR` set (tools/windows.sh), both also carry binaries/win64/ and
+//! binaries/x86_64-windows/SpurGearTrain.dll.
+//!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-train`; prints the path.
 
 use model_description::{model_description_xml, model_description_xml3, train, Table};
@@ -12,28 +15,31 @@ const LAYOUT_PNG: &[u8] = include_bytes!("../../../docs/train-layout.png");
 
 fn main() {
     let so = fmu_packaging::release_binary("spur_gear_train");
+    let dll = fmu_packaging::windows_binary("spur_gear_train");
     let table = train::load();
     let xml = model_description_xml(&table, env!("CARGO_PKG_VERSION"));
     let doc = documentation(&table);
-    let path = fmu_packaging::write_fmu(
-        "SpurGearTrain",
-        &[
-            ("modelDescription.xml", xml.as_bytes()),
-            ("binaries/linux64/SpurGearTrain.so", &so),
-            ("documentation/index.html", doc.as_bytes()),
-            ("documentation/train-layout.png", LAYOUT_PNG),
-        ],
-    );
+    let mut files: Vec<(&str, &[u8])> = vec![
+        ("modelDescription.xml", xml.as_bytes()),
+        ("binaries/linux64/SpurGearTrain.so", &so),
+        ("documentation/index.html", doc.as_bytes()),
+        ("documentation/train-layout.png", LAYOUT_PNG),
+    ];
+    if let Some(dll) = &dll {
+        files.push(("binaries/win64/SpurGearTrain.dll", dll));
+    }
+    let path = fmu_packaging::write_fmu("SpurGearTrain", &files);
     let xml3 = model_description_xml3(&table, env!("CARGO_PKG_VERSION"));
-    let path3 = fmu_packaging::write_fmu(
-        "SpurGearTrain-fmi3",
-        &[
-            ("modelDescription.xml", xml3.as_bytes()),
-            ("binaries/x86_64-linux/SpurGearTrain.so", &so),
-            ("documentation/index.html", doc.as_bytes()),
-            ("documentation/train-layout.png", LAYOUT_PNG),
-        ],
-    );
+    let mut files3: Vec<(&str, &[u8])> = vec![
+        ("modelDescription.xml", xml3.as_bytes()),
+        ("binaries/x86_64-linux/SpurGearTrain.so", &so),
+        ("documentation/index.html", doc.as_bytes()),
+        ("documentation/train-layout.png", LAYOUT_PNG),
+    ];
+    if let Some(dll) = &dll {
+        files3.push(("binaries/x86_64-windows/SpurGearTrain.dll", dll));
+    }
+    let path3 = fmu_packaging::write_fmu("SpurGearTrain-fmi3", &files3);
     eprintln!("FMI 3.0: {}", path3.display());
     println!("{}", path.display());
 }
