@@ -31,9 +31,12 @@ DEB_CARGO=/usr/bin/cargo
 DEB_RUSTC=/usr/bin/rustc
 RUST_SRC=/usr/lib/rustlib/src/rust/library
 need=()
-[ -x "$DEB_CARGO" ] && "$DEB_CARGO" --version 2>/dev/null | grep -q . || need+=(cargo-web)
-[ -x "$DEB_RUSTC" ] || need+=(rustc-web)
-[ -d "$RUST_SRC/std" ] || need+=(rust-web-src)
+# The -web packages by name: bookworm's plain rustc/cargo (1.63) also live in /usr/bin and are
+# too old for the pinned dependencies; rust-web-src matches rustc-web's version exactly.
+for p in rustc-web cargo-web rust-web-src; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || need+=("$p")
+done
+[ -x "$DEB_CARGO" ] && [ -x "$DEB_RUSTC" ] && [ -d "$RUST_SRC/std" ] || need+=(rustc-web cargo-web rust-web-src)
 command -v x86_64-w64-mingw32-gcc >/dev/null || need+=(gcc-mingw-w64-x86-64)
 command -v x86_64-w64-mingw32-objdump >/dev/null || need+=(binutils-mingw-w64-x86-64)
 command -v wine >/dev/null || need+=(wine wine64)
