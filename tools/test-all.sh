@@ -17,3 +17,5 @@ echo "== memcheck of the C API (valgrind)"
 bash tools/reliability.sh
 echo "== FMU tests through FMPy"
 "$py" -m pytest -q tests/python
+echo "== Windows binaries: cross build, every FMU packaged with both platforms, wine tests (tools/windows.sh)"
+bash tools/windows.sh
