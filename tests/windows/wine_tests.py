@@ -8,7 +8,10 @@
 3. tests/windows/fmi_master.c, compiled with MinGW and run under wine, loads each DLL with
    LoadLibrary; the same source compiled with gcc loads the Linux .so natively. Co-Simulation
    runs of the scenes, Model Exchange with fixed-step RK4, FMU states (and blobs carried between
-   the two binaries), two instances in two threads and the bad-input cases. The CSVs of the DLL
+   the two binaries), two instances in two threads and the bad-input cases. The scenes run on
+   the DLL twice, with the x87 control word of MinGW's main thread (64-bit precision) and with
+   Windows' default (53-bit, FMI_MASTER_X87=53): MinGW's exp/pow/log/sin/cos/atan2 in the DLL
+   run on the x87 unit. The CSVs of the DLL
    must match the .so's within the bound explained in the README ("Which platform"): at most
    twice the solution's own error, estimated per scene as the .so's deviation from a run at a
    100 times tighter rel_tol (floor: 1e-9 of the variable's largest magnitude), and never more
@@ -26,7 +29,6 @@ import subprocess
 import sys
 import threading
 import time
-import tomllib
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
