@@ -207,10 +207,12 @@ impl<R: ExchangeRig> Exchange<R> {
     /// master last asked, a jump from new loads included.
     pub fn settle(&mut self, log: &mut dyn FnMut(&EventReport)) -> Result<Settled, EventError> {
         let handled = self.handle_events(log);
+        // The flags are taken whether or not the events settled.
         let jumped = self.take_jump();
         let nominals_changed = self.take_nominals_changed();
+        let changed = handled?;
         Ok(Settled {
-            states_changed: jumped || handled?,
+            states_changed: jumped || changed,
             nominals_changed,
         })
     }
