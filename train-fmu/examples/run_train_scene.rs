@@ -7,7 +7,7 @@
 //! one JSON line, and writes the output trace (one row per communication point).
 //!
 //! The scene's start values come on the command line (`--set name=value`, as `fmpy simulate
-//! --start-values` takes them; tools/work_precision.py reads scenes/train/<scene>.toml and passes
+//! --start-values` takes them; tools/work_precision.py reads `scenes/train/<scene>.toml` and passes
 //! them), so this example needs no TOML parser:
 //!
 //!   cargo run --release -p spur_gear_train --example run_train_scene -- \
@@ -15,7 +15,7 @@
 //!       [--input-file scenes/train/rattle.input.csv] [--solver 1|2|3] [--rtol 1e-6] \
 //!       [--reps 5] [--trace out.csv] [--outputs 'body[1].w,mesh[1].dte,...']
 //!
-//! `--outputs` defaults to the reference's columns (tests/reference/train/<scene>.csv of a trace
+//! `--outputs` defaults to the reference's columns (`tests/reference/train/<scene>.csv` of a trace
 //! scene, train_ref.output_names): every body's theta and w, every shaft's tau, every mesh's
 //! dte, F_fwd, F_bwd, n_fwd, n_bwd, F_f1, F_f2, F_b1, F_b2, P_loss, then the energies.
 //!

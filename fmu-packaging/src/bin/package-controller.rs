@@ -1,7 +1,7 @@
 //! Builds target/fmu/SpeedController.fmu: the release binary of controller-fmu/ and
 //! modelDescription.xml, both from that crate's variable table.
 //!
-//! With `FMU_WINDOWS_DIR` set (tools/windows.sh) it also carries binaries/win64/<id>.dll.
+//! With `FMU_WINDOWS_DIR` set (tools/windows.sh) it also carries `binaries/win64/<id>.dll`.
 //!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-controller`; prints the path.
 

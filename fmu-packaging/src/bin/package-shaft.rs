@@ -2,7 +2,7 @@
 //! from that crate's variable table, and documentation/index.html with the law, the sign
 //! conventions and every variable.
 //!
-//! With `FMU_WINDOWS_DIR` set (tools/windows.sh) it also carries binaries/win64/<id>.dll.
+//! With `FMU_WINDOWS_DIR` set (tools/windows.sh) it also carries `binaries/win64/<id>.dll`.
 //!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-shaft`; prints the path.
 
