@@ -15,7 +15,7 @@
 //! Run: `cargo bench --bench rhs_cost`.
 
 use spur_gear_mesh::model::paper_rig::{DTE, THETA_A};
-use spur_gear_mesh::model::train::{self, Body, MeshPlace, Train, TrainSpec};
+use spur_gear_mesh::model::train::{self, Body, MeshPlace, Ripple, Train, TrainSpec};
 use spur_gear_mesh::model::{PaperRig, State, NY};
 use spur_gear_mesh::variables::{Inputs, Params};
 use std::hint::black_box;
@@ -100,6 +100,7 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
             j: if i == 0 { 0.4 } else { 2.0 },
             c: if i == n { 2.0 } else { 0.0 },
             w_start: 100.0 / 1.5f64.powi(i as i32),
+            ripple: Ripple::NONE,
         })
         .collect();
     let meshes = (0..n)

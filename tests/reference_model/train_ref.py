@@ -99,7 +99,7 @@ NOT_PER_MESH = {"J_A", "J_B", "c_load", "w_A_start", "w_B_start", "tau_A", "tau_
 MESH_PAIR_KEYS = [k for k in G.DEFAULTS if k not in NOT_PER_MESH]
 MESH_PLACE_KEYS = {"A": 0, "B": 0, "center_angle": 0.0, "mount_A": 0.0, "mount_B": 0.0}
 SHAFT_KEYS = ("a", "b", "k", "d", "twist_start")
-BODY_KEYS = ("J", "c", "w_start", "tau")
+BODY_KEYS = ("J", "c", "w_start", "tau", "tau_ripple", "ripple_order", "ripple_phase")
 INTEGER_KEYS = {"n_bodies", "n_shafts", "n_meshes", "solver"}
 TOP_KEYS = {"n_bodies": 4, "n_shafts": 1, "n_meshes": 2, "rel_tol": 1e-6, "solver": 1}
 
@@ -115,6 +115,7 @@ def train_defaults() -> dict:
         d[f"body[{i}].c"] = 2.0 if i == 4 else 0.0
         d[f"body[{i}].w_start"] = w[i - 1]
         d[f"body[{i}].tau"] = 100.0 if i == 1 else 0.0
+        d[f"body[{i}].tau_ripple"] = d[f"body[{i}].ripple_order"] = d[f"body[{i}].ripple_phase"] = 0.0
     d["body[1].angle_start"] = 0.0
     for j in range(1, CAPACITY["shaft"] + 1):
         a, b, dd = (2, 3, 5.0) if j == 1 else (1, 2, 0.0)
@@ -227,6 +228,7 @@ class Body:
     c: float
     w0: float
     tau: float
+    ripple: tuple = (0.0, 0.0, 0.0)   # amplitude, order, phase: + A sin(order theta + phase)
 
 
 @dataclass
@@ -527,7 +529,11 @@ class GearTrain:
         self._check_counts(nb, ns, nm)
         self.nb, self.ns, self.nm = nb, ns, nm
         self.bodies = [Body(p[f"body[{i}].J"], p[f"body[{i}].c"], p[f"body[{i}].w_start"],
-                            p[f"body[{i}].tau"]) for i in range(1, nb + 1)]
+                            p[f"body[{i}].tau"], (p[f"body[{i}].tau_ripple"], p[f"body[{i}].ripple_order"],
+                                                  p[f"body[{i}].ripple_phase"]))
+                       for i in range(1, nb + 1)]
+        # the angle-locked ripples in use: (body index, amplitude, order, phase)
+        self.ripples = [(i, *b.ripple) for i, b in enumerate(self.bodies) if b.ripple[0] != 0.0]
         for i, b in enumerate(self.bodies, 1):
             if not (b.J > 0.0 and math.isfinite(b.J)):
                 raise ValueError(f"body[{i}].J = {b.J!r} must be > 0")
@@ -709,7 +715,7 @@ class GearTrain:
         n = self.n
         x, xd = y[:n], y[n:2 * n]
         th, w = self.T @ x, self.T @ xd
-        Q = tau - np.array([b.c for b in self.bodies]) * w
+        Q = self.with_ripples(tau, th) - np.array([b.c for b in self.bodies]) * w
         pl = 0.0
         for mesh, ms in zip(self.meshes, cfg.meshes):
             if ms.kf or ms.kb:
@@ -725,6 +731,15 @@ class GearTrain:
             pl += s.d * xd[s.iq] ** 2
         return Q, pl, w
 
+    def with_ripples(self, tau, th):
+        """The bodies' torques with each angle-locked ripple A sin(order theta + phase) added."""
+        if not self.ripples:
+            return tau
+        tau = np.array(tau, dtype=float)
+        for i, a, order, phase in self.ripples:
+            tau[i] += a * math.sin(order * th[i] + phase)
+        return tau
+
     def make_rhs(self, cfg, seg):
         n = self.n
         T, E = self.T, self.E
@@ -733,15 +748,16 @@ class GearTrain:
         t0, v0, dv = seg
         active = [(mesh, ms.kf, ms.kb) for mesh, ms in zip(self.meshes, cfg.meshes) if ms.kf or ms.kb]
         shafts = self.shafts
+        ripples = self.ripples
 
         def rhs(t, y):
             x, xd = y[:n], y[n:2 * n]
             w = T @ xd
-            tau = v0 + dv * (t - t0)
+            th = T @ x if (active or ripples) else None
+            tau = self.with_ripples(v0 + dv * (t - t0), th)
             Q = tau - c * w
             pl = 0.0
             if active:
-                th = T @ x
                 for mesh, kf, kb in active:
                     A, B = mesh.A, mesh.B
                     mA, mB, pp = mesh.torques(mesh.g.rAb * th[A], x[mesh.ie] + mesh.dte0,

@@ -4,7 +4,7 @@
 use crate::variables::{Inputs, Params, Var, VarInfo, VARIABLES};
 use gear_model::model::mesh::Coefficients;
 use gear_model::model::train::{
-    Body, MeshPlace, Shaft, TrainLoads, TrainSpec, MAX_BODIES, MAX_MESHES,
+    Body, MeshPlace, Ripple, Shaft, TrainLoads, TrainSpec, MAX_BODIES, MAX_MESHES,
 };
 use gear_model::variables as single;
 
@@ -106,6 +106,11 @@ pub fn spec(p: &Params) -> Result<TrainSpec, String> {
             j: real(p, &format!("body[{i}].J")),
             c: real(p, &format!("body[{i}].c")),
             w_start: real(p, &format!("body[{i}].w_start")),
+            ripple: Ripple {
+                amplitude: real(p, &format!("body[{i}].tau_ripple")),
+                order: real(p, &format!("body[{i}].ripple_order")),
+                phase: real(p, &format!("body[{i}].ripple_phase")),
+            },
         })
         .collect();
     let mut shafts = Vec::with_capacity(ns);

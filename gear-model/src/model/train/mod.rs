@@ -20,7 +20,7 @@ use super::ModelError;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 pub use topology::{
-    Body, Edge, MeshPlace, Shaft, Step, TrainSpec, Tree, MAX_BODIES, MAX_MESHES, MAX_SHAFTS,
+    Body, Edge, MeshPlace, Ripple, Shaft, Step, TrainSpec, Tree, MAX_BODIES, MAX_MESHES, MAX_SHAFTS,
 };
 
 /// Body 1's angle and speed, the quadratures, then a coordinate and its rate per edge.
@@ -317,7 +317,7 @@ impl Train {
         let mut torque = [0.0; MAX_BODIES];
         let (mut p_ext, mut p_loss) = (0.0, 0.0);
         for (i, body) in c.spec.bodies.iter().enumerate() {
-            let tau = self.loads.tau[i];
+            let tau = self.loads.tau[i] + body.ripple.torque(b.theta[i]);
             torque[i] = tau - body.c * b.w[i];
             p_ext += tau * b.w[i] - body.c * b.w[i] * b.w[i];
         }

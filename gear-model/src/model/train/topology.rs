@@ -18,6 +18,37 @@ pub struct Body {
     pub c: f64,
     /// Start speed, forward positive \[rad/s\].
     pub w_start: f64,
+    /// A torque locked to the body's angle, on top of its input torque.
+    pub ripple: Ripple,
+}
+
+/// An angle-locked torque `amplitude sin(order theta + phase)`, theta the body's forward angle
+/// since the start: an engine's firing-order ripple (order 2 for a four-stroke four-cylinder).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Ripple {
+    /// \[N m\]; 0 switches it off (and costs nothing).
+    pub amplitude: f64,
+    /// Periods per revolution \[1\].
+    pub order: f64,
+    /// \[rad\].
+    pub phase: f64,
+}
+
+impl Ripple {
+    pub const NONE: Ripple = Ripple {
+        amplitude: 0.0,
+        order: 0.0,
+        phase: 0.0,
+    };
+
+    /// The torque at forward angle `theta` \[N m\].
+    #[inline]
+    pub fn torque(&self, theta: f64) -> f64 {
+        if self.amplitude == 0.0 {
+            return 0.0;
+        }
+        self.amplitude * (self.order * theta + self.phase).sin()
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -220,6 +251,7 @@ mod tests {
             j: 1.0,
             c: 0.0,
             w_start: 0.0,
+            ripple: Ripple::NONE,
         }
     }
 
