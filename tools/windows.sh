@@ -3,8 +3,8 @@
 #   1. installs what it needs from Debian's archive when missing (as root): rustc-web, cargo-web
 #      and rust-web-src (Rust 1.96 with the standard library's sources), the MinGW-w64 cross
 #      gcc, wine;
-#   2. cross-builds the four cdylibs (SpurGearMesh, SpurGearTrain, SpeedController,
-#      TorsionalShaft) for x86_64-pc-windows-gnu in one cargo invocation, with Debian's cargo and
+#   2. cross-builds the five cdylibs (SpurGearMesh, SpurGearTrain, SpeedController,
+#      TorsionalShaft, EngineTorque) for x86_64-pc-windows-gnu in one cargo invocation, with Debian's cargo and
 #      rustc, std built from source with panic_unwind (-Zbuild-std, so RUSTC_BOOTSTRAP=1), into
 #      target/windows (its own target directory: the shared target/ stays free);
 #   3. packages every FMU with both platforms (FMU_WINDOWS_DIR, fmu-packaging/src/lib.rs):
@@ -16,7 +16,7 @@
 #
 # Usage: bash tools/windows.sh            (build, package, test; prints the time of each part)
 #        bash tools/windows.sh --no-test  (build and package only)
-# Times on 2 busy cores: std and the four DLLs from scratch about 15 min, later builds reuse std;
+# Times on 2 busy cores: std and the five DLLs from scratch about 15 min, later builds reuse std;
 # the wine tests about 3 min. tools/test-all.sh calls it after the Linux tests.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -55,7 +55,7 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 phase "toolchain: $("$DEB_RUSTC" --version), $("$DEB_CARGO" --version | cut -d' ' -f1-2), $(x86_64-w64-mingw32-gcc --version | head -n 1)"
 
-packages=(-p spur_gear_mesh -p spur_gear_train -p speed_controller -p torsional_shaft)
+packages=(-p spur_gear_mesh -p spur_gear_train -p speed_controller -p torsional_shaft -p engine_torque)
 phase "cross build for x86_64-pc-windows-gnu, std from source (target/windows)"
 RUSTC="$DEB_RUSTC" RUSTDOC=/usr/bin/rustdoc RUSTC_BOOTSTRAP=1 \
   CARGO_TARGET_X86_64_PC_WINDOWS_GNU_LINKER=x86_64-w64-mingw32-gcc \
@@ -74,6 +74,7 @@ cargo run -q -p fmu-packaging --release >/dev/null
 cargo run -q -p fmu-packaging --release --bin package-train >/dev/null
 cargo run -q -p fmu-packaging --release --bin package-controller >/dev/null
 cargo run -q -p fmu-packaging --release --bin package-shaft >/dev/null
+cargo run -q -p fmu-packaging --release --bin package-engine >/dev/null
 unset FMU_WINDOWS_DIR FMU_OUT_DIR
 publish() {
   mkdir -p target/fmu

@@ -13,11 +13,14 @@
 //!   checksum) around the model's payload, and the reader and writer of payloads;
 //! - `ffi`: the bodies of the 44 fmi2* functions, generic over the model;
 //! - `model_exchange`: the bodies of the Model Exchange functions;
+//! - `algebraic`: the `Slave` of a stateless FMU (outputs a function of parameters and
+//!   inputs), and `algebraic_fmu!`, which builds one from a crate's generated table;
 //! - `export_fmi2!`: the `#[no_mangle]` functions themselves, defined in the model's crate.
 
 // `!(x > y)` on purpose throughout: a NaN argument must fail the check.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod algebraic;
 pub mod ffi;
 pub mod fmu_state;
 pub mod instance;

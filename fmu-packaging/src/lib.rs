@@ -84,3 +84,77 @@ fn write_zip(path: &Path, files: &[(&str, &[u8])]) {
     }
     zip.finish().expect("finishing the zip");
 }
+
+/// Packages a model crate's FMU: its release binary (and the Windows DLL when
+/// `FMU_WINDOWS_DIR` is set), its modelDescription.xml and `extra` files; returns the path.
+pub fn package(package: &str, model: &str, xml: &str, extra: &[(&str, &[u8])]) -> PathBuf {
+    let so = release_binary(package);
+    let binary = format!("binaries/linux64/{model}.so");
+    let dll = windows_binary(package);
+    let win = format!("binaries/win64/{model}.dll");
+    let mut files: Vec<(&str, &[u8])> =
+        vec![("modelDescription.xml", xml.as_bytes()), (&binary, &so)];
+    if let Some(dll) = &dll {
+        files.push((&win, dll));
+    }
+    files.extend_from_slice(extra);
+    write_fmu(model, &files)
+}
+
+/// Text for HTML.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The head of a model's documentation/index.html, up to its `<body>`.
+pub fn html_head(title: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>body{{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;font-size:90%}}th{{background:#eee}}code{{background:#f4f4f4}}</style></head><body>\n"
+    )
+}
+
+/// A documentation table of every variable of a model's table (`variables.toml`): name,
+/// value reference, causality, unit, start, valid values, description.
+pub fn variables_table(table_toml: &str) -> String {
+    let t = model_description::parse(table_toml);
+    let mut h = String::from(
+        "<table><tr><th>name</th><th>value reference</th><th>causality</th><th>unit</th><th>start</th><th>valid</th><th>description</th></tr>\n",
+    );
+    for v in &t.vars {
+        let causality = match v.causality.as_str() {
+            "parameter" => format!("parameter ({})", v.variability),
+            c => c.to_string(),
+        };
+        let start = match &v.start {
+            Some(toml::Value::Float(x)) => x.to_string(),
+            Some(x) => x.to_string(),
+            None if v.causality == "input" => "0".into(),
+            None => String::new(),
+        };
+        let range = match (v.min, v.max) {
+            _ if v.causality == "output" => String::new(),
+            (None, None) => "any finite".into(),
+            (min, max) => {
+                let lo =
+                    min.map(|m| format!("&{}; {m}", if v.exclusive_min { "gt" } else { "ge" }));
+                let hi =
+                    max.map(|m| format!("&{}; {m}", if v.exclusive_max { "lt" } else { "le" }));
+                lo.into_iter().chain(hi).collect::<Vec<_>>().join(", ")
+            }
+        };
+        h.push_str(&format!(
+            "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            v.name,
+            v.vr,
+            causality,
+            v.unit.as_deref().unwrap_or(""),
+            start,
+            range,
+            esc(&v.description)
+        ));
+    }
+    h.push_str("</table>\n");
+    h
+}

@@ -25,10 +25,12 @@ ROOT = Path(__file__).resolve().parents[2]
 MODEL_IDENTIFIER = "SpurGearMesh"
 
 
-def build_fmu():
-    """Builds and packages the FMU; returns the path the packager prints."""
+def build_fmu(packager=None):
+    """Builds and packages the FMU (another model's with `packager`, e.g. "package-engine");
+    returns the path the packager prints."""
     out = subprocess.run(
-        ["cargo", "run", "-q", "-p", "fmu-packaging", "--release"],
+        ["cargo", "run", "-q", "-p", "fmu-packaging", "--release"]
+        + (["--bin", packager] if packager else []),
         cwd=ROOT,
         check=True,
         capture_output=True,
@@ -52,6 +54,12 @@ def train_fmu_path():
     import train_scene_compare
 
     return train_scene_compare.build_train_fmu()
+
+
+@pytest.fixture(scope="session")
+def engine_fmu_path():
+    """EngineTorque.fmu, built from the working tree once per session."""
+    return build_fmu("package-engine")
 
 
 @pytest.fixture(scope="session")

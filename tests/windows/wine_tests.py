@@ -56,6 +56,7 @@ FMUS = [
     ("SpurGearTrain-fmi3.fmu", "SpurGearTrain", 3),
     ("SpeedController.fmu", "SpeedController", 2),
     ("TorsionalShaft.fmu", "TorsionalShaft", 2),
+    ("EngineTorque.fmu", "EngineTorque", 2),
 ]
 FOLDERS = {2: ("linux64", "win64"), 3: ("x86_64-linux", "x86_64-windows")}
 
@@ -313,13 +314,14 @@ def me_states_threads_errors(r, so, dll, md, guid):
 
 
 def other_fmus(r, binaries):
-    """The train, the controller and the shaft: a default run on both binaries."""
+    """The train, the controller, the shaft and the engine: a default run on both binaries."""
     cases = {
         "SpurGearTrain": (dict(stop_time=0.02, output_interval=1e-4),
                           ["mesh[1].dte", "mesh[2].dte", "body[4].w", "shaft[1].tau"], {}),
         "TorsionalShaft": (dict(stop_time=0.01, output_interval=1e-3), ["tau_a", "tau_b"],
                            {"theta_a": 0.01, "w_a": 2.0, "theta_b": -0.002, "w_b": 1.0}),
         "SpeedController": (dict(stop_time=0.05, output_interval=1e-3), None, {}),
+        "EngineTorque": (dict(stop_time=0.01, output_interval=1e-3), ["tau"], {"theta": 0.3}),
     }
     for mid, (times, outputs, starts) in cases.items():
         if mid not in binaries:

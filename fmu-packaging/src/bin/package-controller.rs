@@ -8,16 +8,7 @@
 use speed_controller::variables::{model_description_xml, MODEL_NAME};
 
 fn main() {
-    let so = fmu_packaging::release_binary("speed_controller");
-    let binary = format!("binaries/linux64/{MODEL_NAME}.so");
-    let dll = fmu_packaging::windows_binary("speed_controller");
-    let win = format!("binaries/win64/{MODEL_NAME}.dll");
     let xml = model_description_xml();
-    let mut files: Vec<(&str, &[u8])> =
-        vec![("modelDescription.xml", xml.as_bytes()), (&binary, &so)];
-    if let Some(dll) = &dll {
-        files.push((&win, dll));
-    }
-    let path = fmu_packaging::write_fmu(MODEL_NAME, &files);
+    let path = fmu_packaging::package("speed_controller", MODEL_NAME, &xml, &[]);
     println!("{}", path.display());
 }

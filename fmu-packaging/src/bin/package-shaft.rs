@@ -6,76 +6,24 @@
 //!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-shaft`; prints the path.
 
-use torsional_shaft::variables::{model_description_xml, Causality, MODEL_NAME, VARIABLES};
+use torsional_shaft::variables::{model_description_xml, MODEL_NAME};
 
 fn main() {
-    let so = fmu_packaging::release_binary("torsional_shaft");
-    let binary = format!("binaries/linux64/{MODEL_NAME}.so");
-    let dll = fmu_packaging::windows_binary("torsional_shaft");
-    let win = format!("binaries/win64/{MODEL_NAME}.dll");
     let doc = documentation();
-    let xml = model_description_xml();
-    let mut files: Vec<(&str, &[u8])> = vec![
-        ("modelDescription.xml", xml.as_bytes()),
-        (&binary, &so),
-        ("documentation/index.html", doc.as_bytes()),
-    ];
-    if let Some(dll) = &dll {
-        files.push((&win, dll));
-    }
-    let path = fmu_packaging::write_fmu(MODEL_NAME, &files);
+    let extra: [(&str, &[u8]); 1] = [("documentation/index.html", doc.as_bytes())];
+    let path = fmu_packaging::package(
+        "torsional_shaft",
+        MODEL_NAME,
+        &model_description_xml(),
+        &extra,
+    );
     println!("{}", path.display());
-}
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-/// The variables' table rows, in the table's order.
-fn rows() -> String {
-    let starts = torsional_shaft::variables::Params::default();
-    let mut h = String::new();
-    for v in VARIABLES {
-        let causality = match v.causality {
-            Causality::Input => "input",
-            Causality::Parameter => "parameter (tunable)",
-            _ => "output",
-        };
-        let start = starts.get_real(v.var).map_or_else(
-            || {
-                if v.causality == Causality::Input {
-                    "0".to_string()
-                } else {
-                    String::new()
-                }
-            },
-            |x| x.to_string(),
-        );
-        let range = match v.range.min {
-            Some(m) => format!("&ge; {m}"),
-            None if v.causality == Causality::Output => String::new(),
-            None => "any finite".into(),
-        };
-        h.push_str(&format!(
-            "<tr><td><code>{}</code></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
-            v.name,
-            v.vr,
-            causality,
-            v.unit.unwrap_or(""),
-            start,
-            range,
-            esc(v.description)
-        ));
-    }
-    h
 }
 
 /// documentation/index.html.
 fn documentation() -> String {
     let mut h = String::new();
-    h.push_str("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>TorsionalShaft</title>\n<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px;font-size:90%}th{background:#eee}code{background:#f4f4f4}</style></head><body>\n");
+    h.push_str(&fmu_packaging::html_head("TorsionalShaft"));
     h.push_str(concat!(
         "<h1>TorsionalShaft</h1>\n",
         "<p>A massless linear torsional spring-damper between two shaft ends, <i>a</i> and <i>b</i>, on one axis: ",
@@ -108,9 +56,10 @@ fn documentation() -> String {
         "is an error, and so is every call in a state where the standard does not allow it. FMU states can be got, set and ",
         "serialized; a serialized state is checked as <code>fmi2SetReal</code> checks values.</p>\n",
         "<h2>Variables</h2>\n",
-        "<table><tr><th>name</th><th>value reference</th><th>causality</th><th>unit</th><th>start</th><th>valid</th><th>description</th></tr>\n",
     ));
-    h.push_str(&rows());
-    h.push_str("</table>\n</body></html>\n");
+    h.push_str(&fmu_packaging::variables_table(include_str!(
+        "../../../shaft-fmu/variables.toml"
+    )));
+    h.push_str("</body></html>\n");
     h
 }
