@@ -1,11 +1,13 @@
-"""The two-stage drivetrain (issue 24) as a co-simulation of three FMUs, and as one FMU.
+"""The two-stage drivetrain (issue 24) as a co-simulation of four FMUs, and as one FMU.
 
-    gear1 (SpurGearMesh, stage 1: 20/40)  --theta_B, w_B-->  shaft (TorsionalShaft)  <--theta_A, w_A--  gear2 (stage 2: 18/45)
-    gear1.tau_B  <--tau_a--  shaft  --tau_b-->  gear2.tau_A
+    engine (EngineTorque)  <--theta_A--  gear1 (SpurGearMesh, stage 1: 20/40)  --theta_B, w_B-->  shaft (TorsionalShaft)  <--theta_A, w_A--  gear2 (stage 2: 18/45)
+    engine --tau--> gear1.tau_A     gear1.tau_B  <--tau_a--  shaft  --tau_b-->  gear2.tau_A
 
-The physics is scenes/train/two-stage.toml (the train's two-stage reducer with standard gear data):
-drive 50 N.m on stage 1's pinion (gear1.tau_A, a constant input), load -150 N.m plus drag 10/3
-N.m.s/rad on stage 2's wheel (gear2.tau_B, gear2.c_load), the intermediate shaft k = 1e5 N.m/rad,
+The physics is scenes/train/two-stage-firing.toml (the train's two-stage reducer with standard gear
+data, driven by an engine): drive 50 N.m with a 20 N.m ripple at engine order 2, locked to stage
+1's pinion angle (EngineTorque into gear1.tau_A; the train's body[1].tau with body[1].tau_ripple),
+load -150 N.m plus drag 10/3 N.m.s/rad on stage 2's wheel (gear2.tau_B, gear2.c_load), the
+intermediate shaft k = 1e5 N.m/rad,
 d = 5 N.m.s/rad between stage 1's wheel and stage 2's pinion, chi = 10 s/m in both meshes, and the
 quasi-static running start of that scene (rigid speed ratios, each mesh at its static penetration,
 the shaft pre-twisted by its 100 N.m).
@@ -18,15 +20,18 @@ a, then wheel A turned by dte_start, gear-train.md sections 3-4):
                         mesh 2's frame is mirrored: chi_A = -(psi_3 + mount_A - beta_2) = X_2).
 The single mesh starts theta_A at dte_start/rAb, theta_B at 0; the train starts all angles at 0.
 So the shaft FMU's twist_start is the train's plus gear2's theta_A(0) = dte_start_2/rAb_2: its
-twist theta_a - theta_b + twist_start is then the train's shaft[1].twist at every time.
+twist theta_a - theta_b + twist_start is then the train's shaft[1].twist at every time.  Likewise
+the engine's phase is the train's ripple_phase minus order * gear1's theta_A(0): its crank angle
+is gear1's theta_A, which runs dte_start_1/rAb_1 ahead of the train's body[1].theta.
 
 Functions
   system()                          every parameter of both set-ups, from the scene
   write_ssd(path)                   cosim/two-stage.ssd (generated from system(); committed)
   build_ssp(out)                    target/cosim/two-stage.ssp: the .ssd and the three FMUs
   run_monolithic(train_fmu, t_stop, dt_out)             the train FMU, one FMU, CS
-  run_master(fmus, h, t_stop, ...)  a fixed-step master of our own (Jacobi or Gauss-Seidel,
-                                    held inputs or input derivatives)
+  run_master(h, t_stop, ...)        a fixed-step master of our own (Jacobi or Gauss-Seidel,
+                                    held inputs or input derivatives); it evaluates the shaft's
+                                    and the engine's laws itself
   run_libcosim_ssp(ssp, h, t_stop), run_fmpy_ssp(ssp, h, t_stop)   the real masters on the .ssp
 Every run returns {name: array} on its output grid with "time"; the common names are
 mesh1.dte, mesh2.dte, shaft.tau (the torque the shaft transmits, = train shaft[1].tau),
@@ -44,7 +49,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENE = ROOT / "scenes" / "train" / "two-stage.toml"
+SCENE = ROOT / "scenes" / "train" / "two-stage-firing.toml"
+# the same drivetrain with a constant drive: the stability sweeps run it (docs/cosim.md)
+STEADY_SCENE = ROOT / "scenes" / "train" / "two-stage.toml"
 SSD = ROOT / "cosim" / "two-stage.ssd"
 FMU_DIR = ROOT / "target" / "fmu"
 DEFAULT_SSP = ROOT / "target" / "cosim" / "two-stage.ssp"
@@ -54,19 +61,19 @@ QUANTITIES = ["mesh1.dte", "mesh2.dte", "shaft.tau", "w1", "w2", "w3", "w4"]
 REL_TOL = 1e-9
 
 
-def _scene():
-    with open(SCENE, "rb") as f:
+def _scene(scene=SCENE):
+    with open(scene, "rb") as f:
         return tomllib.load(f)
 
 
-def system(rel_tol=REL_TOL):
+def system(rel_tol=REL_TOL, scene=SCENE):
     """{"train": start values of SpurGearTrain, "gear1"/"gear2"/"shaft": FMU start values (inputs
     that are not connected included), "stop_time": the scene's}.  Derived, never typed: from
     scenes/train/two-stage.toml and the reference model's geometry and placement."""
     sys.path.insert(0, str(ROOT / "tests"))
     from reference_model import train_ref as T
 
-    sc = _scene()
+    sc = _scene(scene)
     sv = dict(sc["start_values"])
     sv["mesh[2].center_angle"] = float(sv.get("mesh[2].center_angle", 0.0))
     sv["body[1].angle_start"] = 0.0
@@ -100,25 +107,41 @@ def system(rel_tol=REL_TOL):
         return p
 
     g1, g2 = gear(1, m1), gear(2, m2)
-    g1["tau_A"] = sv["body[1].tau"]          # the drive: a constant input, not connected
     g2["tau_B"] = sv["body[4].tau"]          # the load's constant part
-    assert sv["body[2].tau"] == sv["body[3].tau"] == 0.0
+    for i in (2, 3, 4):
+        assert sv["body[2].tau"] == sv["body[3].tau"] == 0.0 and not sv.get(f"body[{i}].tau_ripple")
     shaft = {"k": sv["shaft[1].k"], "d": sv["shaft[1].d"],
              "twist_start": sv["shaft[1].twist_start"] + m2.dte0 / m2.g.rAb}
-    return {"train": sv, "gear1": g1, "gear2": g2, "shaft": shaft, "stop_time": sc["stop_time"],
-            "rAb2": m2.g.rAb}
+    # the drive on gear1.tau_A: the train's body[1] law on gear1's theta_A = theta_1 + theta_A(0)
+    order = sv.get("body[1].ripple_order", 0.0)
+    engine = {"tau_mean": sv["body[1].tau"], "tau_ripple": sv.get("body[1].tau_ripple", 0.0),
+              "order": order,
+              "phase": sv.get("body[1].ripple_phase", 0.0) - order * m1.dte0 / m1.g.rAb}
+    return {"train": sv, "gear1": g1, "gear2": g2, "shaft": shaft, "engine": engine,
+            "stop_time": sc["stop_time"], "rAb2": m2.g.rAb}
+
+
+def drive(e, theta, w, alpha):
+    """The engine's torque at crank angle theta (the FMU's law, in its order) and its first two
+    time derivatives at speed w and acceleration alpha."""
+    arg = e["order"] * theta + e["phase"]
+    a, n = e["tau_ripple"], e["order"]
+    return (e["tau_mean"] + a * math.sin(arg), a * n * math.cos(arg) * w,
+            a * n * (math.cos(arg) * alpha - n * math.sin(arg) * w * w))
 
 
 # ---- the SSP ------------------------------------------------------------------------------------
 
 CONNECTIONS = [  # (start element, connector, end element, connector)
+    ("gear1", "theta_A", "engine", "theta"), ("engine", "tau", "gear1", "tau_A"),
     ("gear1", "theta_B", "shaft", "theta_a"), ("gear1", "w_B", "shaft", "w_a"),
     ("gear2", "theta_A", "shaft", "theta_b"), ("gear2", "w_A", "shaft", "w_b"),
     ("shaft", "tau_a", "gear1", "tau_B"), ("shaft", "tau_b", "gear2", "tau_A"),
 ]
-SOURCES = {"gear1": "SpurGearMesh.fmu", "gear2": "SpurGearMesh.fmu", "shaft": "TorsionalShaft.fmu"}
+SOURCES = {"gear1": "SpurGearMesh.fmu", "gear2": "SpurGearMesh.fmu", "shaft": "TorsionalShaft.fmu",
+           "engine": "EngineTorque.fmu"}
 # connectors each component shows besides the connected ones (outputs the runs record)
-EXTRA_OUTPUTS = {"gear1": ["w_A", "dte", "F_fwd"], "gear2": ["w_B", "dte", "F_fwd"], "shaft": []}
+EXTRA_OUTPUTS = {"gear1": ["w_A", "dte", "F_fwd"], "gear2": ["w_B", "dte", "F_fwd"], "shaft": [], "engine": []}
 
 
 def _fmt(v):
@@ -131,12 +154,14 @@ def write_ssd(path=SSD, rel_tol=REL_TOL):
         '<?xml version="1.0" encoding="UTF-8"?>',
         "<!--",
         "  The two-stage drivetrain of issue 24 (generated by `python cosim/drivetrain.py ssd` from",
-        "  scenes/train/two-stage.toml; do not edit by hand). Three FMUs:",
-        "    gear1 (SpurGearMesh, stage 1, 20/40): the drive tau_A = 50 N.m is a constant input;",
+        "  scenes/train/two-stage-firing.toml; do not edit by hand). Four FMUs:",
+        "    engine (EngineTorque): 50 N.m plus 20 N.m at engine order 2 on gear1's pinion angle theta_A;",
+        "    gear1 (SpurGearMesh, stage 1, 20/40): the engine's torque on its pinion, tau_A;",
         "    shaft (TorsionalShaft, k 1e5 N.m/rad, d 5 N.m.s/rad) between gear1's wheel B and gear2's wheel A;",
         "    gear2 (SpurGearMesh, stage 2, 18/45): the load tau_B = -150 N.m and c_load = 10/3 N.m.s/rad.",
         "  Quasi-static running start. The shaft's twist_start includes gear2.theta_A(0) = dte_start/rAb",
-        "  (the single mesh starts theta_A there), so the twist equals the monolithic train's.",
+        "  (the single mesh starts theta_A there), so the twist equals the monolithic train's; the",
+        "  engine's phase is shifted by order * gear1.theta_A(0) for the same reason.",
         "  Build the .ssp with `python cosim/drivetrain.py ssp`; see docs/cosim.md.",
         "-->",
         '<ssd:SystemStructureDescription version="1.0" name="two-stage"',
@@ -144,10 +169,10 @@ def write_ssd(path=SSD, rel_tol=REL_TOL):
         '    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"',
         '    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"',
         '    xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations">',
-        '  <ssd:System name="two-stage" description="Two spur gear stages joined by a compliant shaft">',
+        '  <ssd:System name="two-stage" description="An engine driving two spur gear stages joined by a compliant shaft">',
         "    <ssd:Elements>",
     ]
-    for comp in ("gear1", "shaft", "gear2"):
+    for comp in ("engine", "gear1", "shaft", "gear2"):
         lines.append(f'      <ssd:Component name="{comp}" type="application/x-fmu-sharedlibrary" '
                      f'source="resources/{SOURCES[comp]}">')
         lines.append("        <ssd:Connectors>")
@@ -200,7 +225,7 @@ def ssd_parameters(ssd=SSD):
 
 def fmu_paths():
     return {"gear": FMU_DIR / "SpurGearMesh.fmu", "shaft": FMU_DIR / "TorsionalShaft.fmu",
-            "train": FMU_DIR / "SpurGearTrain.fmu"}
+            "train": FMU_DIR / "SpurGearTrain.fmu", "engine": FMU_DIR / "EngineTorque.fmu"}
 
 
 def build_ssp(out=DEFAULT_SSP, ssd=SSD):
@@ -211,6 +236,7 @@ def build_ssp(out=DEFAULT_SSP, ssd=SSD):
         z.write(ssd, "SystemStructure.ssd")
         z.write(f["gear"], "resources/SpurGearMesh.fmu", compress_type=zipfile.ZIP_STORED)
         z.write(f["shaft"], "resources/TorsionalShaft.fmu", compress_type=zipfile.ZIP_STORED)
+        z.write(f["engine"], "resources/EngineTorque.fmu", compress_type=zipfile.ZIP_STORED)
     return out
 
 
@@ -250,11 +276,11 @@ class Slave:
             shutil.rmtree(self.unzip, ignore_errors=True)
 
 
-def run_monolithic(train_fmu, t_stop, dt_out, rel_tol=REL_TOL, extra=()):
+def run_monolithic(train_fmu, t_stop, dt_out, rel_tol=REL_TOL, extra=(), scene=SCENE):
     """SpurGearTrain alone, stepped at the output interval (its inputs are constant, so the
     internal integration does not see the communication points).  Returns the run and its wall
     time in "_seconds" (instantiation included)."""
-    s = system(rel_tol)
+    s = system(rel_tol, scene)
     t0 = _time.perf_counter()
     c0 = _time.process_time()
     tr = Slave(train_fmu, "train", {k: v for k, v in s["train"].items()})
@@ -276,28 +302,32 @@ def run_monolithic(train_fmu, t_stop, dt_out, rel_tol=REL_TOL, extra=()):
 
 
 def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=REL_TOL, fmus=None,
-               blowup=1e7, delay=0, start="state"):
-    """A fixed-step master of our own on the three FMUs.
+               blowup=1e7, delay=0, start="state", scene=SCENE):
+    """A fixed-step master of our own on the two gear FMUs; it evaluates the two direct
+    feedthroughs, the shaft's and the engine's laws, itself (the SSP runs show the FMUs give
+    the same values).
 
-    scheme="jacobi": at t_k every gear's outputs go through the shaft (a direct feedthrough,
-        evaluated at once) to both gears' inputs; both gears step to t_k + h.  The order-1 coupling
+    scheme="jacobi": at t_k every gear's outputs go through the shaft and the engine (direct
+        feedthroughs, evaluated at once) to the gears' inputs; both gears step to t_k + h.  The order-1 coupling
         the standard masters intend (libcosim and FMPy add one step of delay: docs/cosim.md).
     scheme="gauss-seidel": gear1 steps first; the shaft torque for gear2's step is the law with
         gear1's new state (t_{k+1}) and gear2's old one (t_k), as a sequential master passes the
         newest outputs; the twist then mixes two times (an error of about k w h: docs/cosim.md).
     derivatives=1: with each torque, its time derivative through fmi2SetRealInputDerivatives
         (order 1), from the shaft law: d tau/dt = k (w_a - w_b) + d (alpha_a - alpha_b), the
-        accelerations from each wheel's torque balance J alpha = tau_mesh + tau_in - c w.
-        derivatives=2 adds the second derivative k (alpha_a - alpha_b).
-    delay=1 (Jacobi, held inputs): the torque over [t_k, t_k+1] is the shaft's law at t_{k-1},
+        accelerations from each wheel's torque balance J alpha = tau_mesh + tau_in - c w; the
+        engine's d tau/dt = A n cos(n theta + phase) w.  derivatives=2 adds the second
+        derivatives, k (alpha_a - alpha_b) and the engine's (drive()).
+    delay=1 (Jacobi, held inputs): the torques over [t_k, t_k+1] are the laws at t_{k-1},
         what libcosim and FMPy's simulate_ssp do with a direct-feedthrough FMU between two others
         (they read the shaft's outputs after its step, computed from the inputs set before it).
         start="state": the first two steps take the law at t_0 (libcosim); start="fmpy": the
-        first step has zero torques and the second the law at zero inputs, k twist_start
-        (simulate_ssp starts every connection at 0).
+        first step has zero torques and the second the laws at zero inputs, k twist_start and
+        tau_mean + tau_ripple sin(phase) (simulate_ssp starts every connection at 0).
+    scene: the drivetrain's scene (STEADY_SCENE: the constant drive).
     Records on the grid dt_out (default: max(h, 1e-4)); stops early (and sets "_unstable") when
     the shaft torque exceeds blowup.  "_seconds": wall time, "_cpu": CPU time (after system())."""
-    s = system(rel_tol)
+    s = system(rel_tol, scene)
     t0 = _time.perf_counter()
     c0 = _time.process_time()
     f = fmus or fmu_paths()
@@ -307,7 +337,8 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
     p1, p2 = s["gear1"], s["gear2"]
     names = ["theta_A", "w_A", "theta_B", "w_B", "dte", "tau_mesh_A", "tau_mesh_B"]
     r1, r2 = g1.refs(names), g2.refs(names)
-    vr_tauB1, vr_tauA2 = g1.vr["tau_B"], g2.vr["tau_A"]
+    vr_tauB1, vr_tauA2, vr_tauA1 = g1.vr["tau_B"], g2.vr["tau_A"], g1.vr["tau_A"]
+    e = s["engine"]
     dt_out = dt_out or max(h, 1e-4)
     every = int(round(dt_out / h))
     n = int(round(t_stop / h))
@@ -325,6 +356,11 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
         a_b = (o2[5] + tau) / p2["J_A"]                              # gear2's wheel A (no drag on A)
         return tau, k_s * dw + d_s * (a_a - a_b), k_s * (a_a - a_b)
 
+    def engine(o1):
+        # the drive and its first two rates; gear1's pinion accelerates under it and its mesh torque
+        tau = drive(e, o1[0], o1[1], 0.0)[0]
+        return drive(e, o1[0], o1[1], (o1[5] + tau) / p1["J_A"])
+
     def record(t, o1, o2, tau):
         rows.append((t, o1[4], o2[4], tau, o1[1], o1[3], o2[1], o2[3]))
 
@@ -338,17 +374,18 @@ def run_master(h, t_stop, scheme="jacobi", derivatives=0, dt_out=None, rel_tol=R
         for k in range(n):
             t = k * h
             tau, dtau, ddtau = shaft(o1, o2)
+            td, dtd, ddtd = engine(o1)
             if delay:
-                held = prev if prev is not None else tau
-                prev = tau
+                held = prev if prev is not None else (tau, td)
+                prev = (tau, td)
                 if start == "fmpy" and k < 2:
-                    held = 0.0 if k == 0 else k_s * tw
-                tau = held
-            g1.fmu.setReal([vr_tauB1], [-tau])
+                    held = (0.0, 0.0) if k == 0 else (k_s * tw, drive(e, 0.0, 0.0, 0.0)[0])
+                tau, td = held
+            g1.fmu.setReal([vr_tauB1, vr_tauA1], [-tau, td])
             if derivatives:
-                g1.fmu.setRealInputDerivatives([vr_tauB1], [1], [-dtau])
+                g1.fmu.setRealInputDerivatives([vr_tauB1, vr_tauA1], [1, 1], [-dtau, dtd])
                 if derivatives > 1:
-                    g1.fmu.setRealInputDerivatives([vr_tauB1], [2], [-ddtau])
+                    g1.fmu.setRealInputDerivatives([vr_tauB1, vr_tauA1], [2, 2], [-ddtau, ddtd])
             g1.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
             o1n = g1.fmu.getReal(r1)
             if scheme == "gauss-seidel":
