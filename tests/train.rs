@@ -260,11 +260,19 @@ fn every_mesh_turns_in_the_ratio_of_its_tooth_counts() {
 /// than 1e-6 of them (the single mesh's energy test, tests/model_checks.rs, holds 1e-6 too).
 #[test]
 fn the_energy_balance_closes_with_shafts_and_meshes() {
+    let sim = undamped_reducer_balance(Ripple::NONE);
+    assert!(sim.train.n_events > 100, "pair switches in both meshes");
+}
+
+/// Runs the reducer without any damping (body 1 carrying `ripple`) and checks that its energy
+/// residual stays within 1e-6 of the kinetic energy.
+fn undamped_reducer_balance(ripple: Ripple) -> TrainSimulation {
     let mut spec = reducer(1e5);
     for m in &mut spec.meshes {
         m.params.chi = 0.0;
     }
     spec.shafts[0].d = 0.0;
+    spec.bodies[0].ripple = ripple;
     let (sim, ys) = run_train(spec, vec![100.0, 0.0, 0.0, 0.0], 1e-9, 1e-3, 30);
     let y = ys.last().unwrap();
     let (e_kin, _, residual) = sim.train.energy(y).unwrap();
@@ -272,7 +280,7 @@ fn the_energy_balance_closes_with_shafts_and_meshes() {
         residual.abs() <= 1e-6 * e_kin,
         "residual {residual} J of E_kin {e_kin} J"
     );
-    assert!(sim.train.n_events > 100, "pair switches in both meshes");
+    sim
 }
 
 /// A stiffer and stiffer shaft tends to one body of the summed inertia (gear-train.md §7): the
@@ -444,21 +452,9 @@ fn a_ripple_on_a_lone_body_does_the_work_of_its_closed_form() {
 /// ripple's power is part of W_ext (same bound as the balance above).
 #[test]
 fn the_energy_balance_counts_the_ripples_work() {
-    let mut spec = reducer(1e5);
-    for m in &mut spec.meshes {
-        m.params.chi = 0.0;
-    }
-    spec.shafts[0].d = 0.0;
-    spec.bodies[0].ripple = Ripple {
+    undamped_reducer_balance(Ripple {
         amplitude: 40.0,
         order: 2.0,
         phase: 0.0,
-    };
-    let (sim, ys) = run_train(spec, vec![100.0, 0.0, 0.0, 0.0], 1e-9, 1e-3, 30);
-    let y = ys.last().unwrap();
-    let (e_kin, _, residual) = sim.train.energy(y).unwrap();
-    assert!(
-        residual.abs() <= 1e-6 * e_kin,
-        "residual {residual} J of E_kin {e_kin} J"
-    );
+    });
 }

@@ -1,18 +1,24 @@
 //! SpeedController as an `fmi2_slave::Slave`, and its exported fmi2* functions. The FMI layer
 //! itself (state machine, logging, FMU states, the C functions) is the `fmi2_slave` crate,
-//! shared with SpurGearMesh.
+//! shared with SpurGearMesh; the parameters and inputs with their checks are
+//! `fmi2_slave::algebraic`'s table, shared with TorsionalShaft and EngineTorque.
 
 #![allow(non_snake_case, clippy::missing_safety_doc)]
 
 use crate::controller::{self, reference, Pi};
-use crate::variables::{
-    Causality, Inputs, Params, Var, VarType, GUID, LOG_CATEGORIES, MODEL_NAME, VARIABLES,
-};
+use crate::variables::{Var, GUID, LOG_CATEGORIES, MODEL_NAME};
+use fmi2_slave::algebraic::{self, decode_reals, encode_reals, lookup, set_reals};
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::logging::LOG_EVENTS;
-use fmi2_slave::{error, Boolean, Failure, Logger, Slave, Status, ValueReference};
+use fmi2_slave::{Boolean, Failure, Logger, Slave, Status, ValueReference};
 
 fmi2_slave::export_fmi2!(SpeedController);
+fmi2_slave::values_table!(Values);
+
+/// No condition on the values together: each is checked on its own.
+fn no_check(_: &Values) -> Option<String> {
+    None
+}
 
 /// The controller's own debug category: the PI update of every step.
 pub const LOG_SOLVER: &str = "logSolver";
@@ -20,8 +26,8 @@ pub const LOG_SOLVER: &str = "logSolver";
 /// Everything that determines how an instance continues (also its FMU state).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpeedController {
-    pub params: Params,
-    pub inputs: Inputs,
+    /// The parameters and inputs.
+    pub values: Values,
     pub start_time: f64,
     pub time: f64,
     /// The controller; None until the end of initialization.
@@ -31,7 +37,7 @@ pub struct SpeedController {
 impl SpeedController {
     /// The law's parameters.
     pub fn params(&self) -> controller::Params {
-        let p = &self.params;
+        let p = &self.values.params;
         controller::Params {
             w_ref: p.w_ref,
             t_ramp: p.t_ramp,
@@ -47,41 +53,8 @@ impl SpeedController {
     /// start from with the current input.
     fn pi(&self) -> Pi {
         self.pi
-            .unwrap_or_else(|| Pi::initial(&self.params(), self.start_time, self.inputs.w_A))
+            .unwrap_or_else(|| Pi::initial(&self.params(), self.start_time, self.values.inputs.w_A))
     }
-}
-
-fn lookup(vr: u32, ty: VarType) -> Result<Var, Failure> {
-    let v = Var::from_vr(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
-    let info = v.info();
-    if info.ty != ty {
-        return Err(error(format!(
-            "{} (value reference {vr}) is {:?}, not {ty:?}",
-            info.name, info.ty
-        )));
-    }
-    Ok(v)
-}
-
-/// A variable that may be set: a parameter or the input.
-fn settable(vr: u32, ty: VarType) -> Result<Var, Failure> {
-    let v = lookup(vr, ty)?;
-    match v.info().causality {
-        Causality::Parameter | Causality::Input => Ok(v),
-        _ => Err(error(format!(
-            "{} is an output: it cannot be set",
-            v.info().name
-        ))),
-    }
-}
-
-/// The Real parameters and inputs in the table's order (the FMU state's payload).
-fn settable_reals() -> impl Iterator<Item = Var> {
-    VARIABLES
-        .iter()
-        .filter(|v| v.ty == VarType::Real)
-        .filter(|v| matches!(v.causality, Causality::Parameter | Causality::Input))
-        .map(|v| v.var)
 }
 
 impl Slave for SpeedController {
@@ -96,8 +69,7 @@ impl Slave for SpeedController {
 
     fn fresh() -> SpeedController {
         SpeedController {
-            params: Params::default(),
-            inputs: Inputs::default(),
+            values: Values::default(),
             start_time: 0.0,
             time: 0.0,
             pi: None,
@@ -124,11 +96,11 @@ impl Slave for SpeedController {
     }
 
     fn get_real(&mut self, vr: ValueReference) -> Result<f64, Failure> {
-        let v = lookup(vr, VarType::Real)?;
-        if let Some(x) = self.params.get_real(v).or(self.inputs.get_real(v)) {
+        lookup::<Values>(vr, "Real")?;
+        if let Some(x) = algebraic::Table::settable_real(&self.values, vr) {
             return Ok(x);
         }
-        Ok(match v {
+        Ok(match Var::from_vr(vr).expect("a table variable") {
             Var::tau => self.pi().tau,
             Var::error => self.pi().error,
             Var::integral => self.pi().integral,
@@ -138,7 +110,8 @@ impl Slave for SpeedController {
     }
 
     fn get_boolean(&mut self, vr: ValueReference) -> Result<bool, Failure> {
-        match lookup(vr, VarType::Boolean)? {
+        lookup::<Values>(vr, "Boolean")?;
+        match Var::from_vr(vr).expect("a table variable") {
             Var::saturated => Ok(self.pi().saturated),
             other => unreachable!("{other:?} is a Boolean output"),
         }
@@ -152,19 +125,7 @@ impl Slave for SpeedController {
         values: &[f64],
         _running: bool,
     ) -> Result<(), Failure> {
-        let (mut params, mut inputs) = (self.params.clone(), self.inputs.clone());
-        for (&vr, &x) in vrs.iter().zip(values) {
-            let v = settable(vr, VarType::Real)?;
-            let info = v.info();
-            if !x.is_finite() {
-                return Err(error(format!("{} = {x}: must be finite", info.name)));
-            }
-            if let Some(why) = info.range.violation(x) {
-                return Err(error(format!("{} = {x}: {why}", info.name)));
-            }
-            let _ = params.set_real(v, x) || inputs.set_real(v, x);
-        }
-        (self.params, self.inputs) = (params, inputs);
+        self.values = set_reals(&self.values, vrs, values, no_check)?;
         Ok(())
     }
 
@@ -176,14 +137,14 @@ impl Slave for SpeedController {
         _running: bool,
     ) -> Result<(), Failure> {
         for &vr in vrs {
-            settable(vr, VarType::Boolean)?;
+            algebraic::settable::<Values>(vr, "Boolean")?;
         }
         Ok(())
     }
 
     fn do_step(&mut self, current: f64, h: f64, log: &Logger) -> Result<(), Failure> {
         let p = self.params();
-        let w = self.inputs.w_A;
+        let w = self.values.inputs.w_A;
         let mut pi = self.pi();
         let was_saturated = pi.saturated;
         pi.step(&p, self.start_time, current, h, w);
@@ -220,13 +181,7 @@ impl Slave for SpeedController {
     }
 
     fn encode(&self, w: &mut Writer) {
-        for v in settable_reals() {
-            w.f(self
-                .params
-                .get_real(v)
-                .or(self.inputs.get_real(v))
-                .expect("a Real"));
-        }
+        encode_reals(&self.values, w);
         w.f(self.start_time);
         w.f(self.time);
         w.b(self.pi.is_some());
@@ -240,12 +195,9 @@ impl Slave for SpeedController {
         w.b(pi.saturated);
     }
 
+    /// What `encode` wrote; the parameters and inputs are checked as fmi2SetReal checks them.
     fn decode(r: &mut Reader) -> Result<SpeedController, String> {
-        let (mut params, mut inputs) = (Params::default(), Inputs::default());
-        for v in settable_reals() {
-            let x = r.f()?;
-            let _ = params.set_real(v, x) || inputs.set_real(v, x);
-        }
+        let values = decode_reals(r, no_check)?;
         let (start_time, time, has_pi) = (r.f()?, r.f()?, r.b()?);
         let [integral, error, tau] = r.fs()?;
         let saturated = r.b()?;
@@ -256,8 +208,7 @@ impl Slave for SpeedController {
             saturated,
         });
         Ok(SpeedController {
-            params,
-            inputs,
+            values,
             start_time,
             time,
             pi,
@@ -273,7 +224,7 @@ mod tests {
     #[test]
     fn serialized_state_round_trips_and_rejects_damage() {
         let mut s = SpeedController::fresh();
-        s.inputs.w_A = 12.5;
+        s.values.inputs.w_A = 12.5;
         s.exit_initialization().unwrap();
         s.pi.as_mut().unwrap().integral = 3.25;
         let saved = Saved {
@@ -294,5 +245,17 @@ mod tests {
         let e = fmi2_slave::fmu_state::decode::<SpeedController>(&bytes[..bytes.len() - 1])
             .unwrap_err();
         assert!(e.contains("length"), "{e}");
+    }
+
+    #[test]
+    fn a_state_with_a_bad_value_is_refused() {
+        let mut s = SpeedController::fresh();
+        s.values.params.kp = f64::NAN;
+        let bytes = fmi2_slave::fmu_state::encode(&Saved {
+            state: FmiState::StepComplete,
+            slave: s,
+        });
+        let e = fmi2_slave::fmu_state::decode::<SpeedController>(&bytes).unwrap_err();
+        assert!(e.contains("kp = NaN"), "{e}");
     }
 }

@@ -2,8 +2,10 @@
 //! feedthrough), and a step that only advances the time. TorsionalShaft and EngineTorque are
 //! such FMUs; this module is their `Slave`, written once.
 //!
-//! A model provides its variable table through [`Table`] (which [`algebraic_fmu!`](crate::algebraic_fmu) implements
-//! from the crate's generated `variables` module) and its law through [`Law`].
+//! A model provides its variable table through [`Table`] (which
+//! [`values_table!`](crate::values_table) implements from the crate's generated `variables`
+//! module) and its law through [`Law`]. The table's helpers (`lookup`, `set_reals`, the FMU
+//! state's `encode_reals`/`decode_reals`) serve a stateful FMU too: SpeedController.
 
 use crate::fmu_state::{Reader, Writer};
 use crate::instance::{error, Failure};
@@ -19,8 +21,8 @@ pub struct Variable {
     pub settable: bool,
 }
 
-/// The parameters and inputs of a stateless FMU and its variable table (generated: see
-/// [`algebraic_fmu!`](crate::algebraic_fmu)).
+/// An FMU's parameters and inputs and its variable table (generated: see
+/// [`values_table!`](crate::values_table)).
 pub trait Table: Clone + std::fmt::Debug + PartialEq + 'static {
     const MODEL_NAME: &'static str;
     const LOG_CATEGORIES: &'static [&'static str];
@@ -57,8 +59,9 @@ pub struct Algebraic<L> {
     pub time: f64,
 }
 
-fn lookup<L: Law>(vr: ValueReference, ty: &str) -> Result<Variable, Failure> {
-    let v = L::variable(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
+/// The variable behind `vr`, which must be of type `ty`.
+pub fn lookup<T: Table>(vr: ValueReference, ty: &str) -> Result<Variable, Failure> {
+    let v = T::variable(vr).ok_or_else(|| error(format!("unknown value reference {vr}")))?;
     if v.ty != ty {
         return Err(error(format!(
             "{} (value reference {vr}) is {}, not {ty}",
@@ -68,24 +71,73 @@ fn lookup<L: Law>(vr: ValueReference, ty: &str) -> Result<Variable, Failure> {
     Ok(v)
 }
 
+/// A variable the master may set (a parameter or an input) of type `ty`.
+pub fn settable<T: Table>(vr: ValueReference, ty: &str) -> Result<Variable, Failure> {
+    let v = lookup::<T>(vr, ty)?;
+    if !v.settable {
+        return Err(error(format!("{} is an output: it cannot be set", v.name)));
+    }
+    Ok(v)
+}
+
 /// A settable Real's own check: finite and within the table's range.
-fn value_violation<L: Law>(vr: ValueReference, name: &str, x: f64) -> Option<String> {
+fn value_violation<T: Table>(vr: ValueReference, name: &str, x: f64) -> Option<String> {
     if !x.is_finite() {
         return Some(format!("{name} = {x}: must be finite"));
     }
-    L::range_violation(vr, x).map(|why| format!("{name} = {x}: {why}"))
+    T::range_violation(vr, x).map(|why| format!("{name} = {x}: {why}"))
 }
 
-/// Why these values cannot be the model's: a value (named) or the law.
-fn violation<L: Law>(law: &L) -> Option<String> {
-    for vr in L::settable_reals() {
-        let name = L::variable(vr).expect("a table variable").name;
-        let x = law.settable_real(vr).expect("a settable Real");
-        if let Some(why) = value_violation::<L>(vr, name, x) {
-            return Some(why);
+/// `values` with `xs` set to `vrs`, all or none: each value finite and in its range, then
+/// `check` (the law's own condition on all values together) passes.
+pub fn set_reals<T: Table>(
+    values: &T,
+    vrs: &[ValueReference],
+    xs: &[f64],
+    check: impl Fn(&T) -> Option<String>,
+) -> Result<T, Failure> {
+    let mut new = values.clone();
+    for (&vr, &x) in vrs.iter().zip(xs) {
+        let v = settable::<T>(vr, "Real")?;
+        if let Some(why) = value_violation::<T>(vr, v.name, x) {
+            return Err(error(why));
+        }
+        new.set_settable_real(vr, x);
+    }
+    if let Some(why) = check(&new) {
+        return Err(error(why));
+    }
+    Ok(new)
+}
+
+/// Writes every settable Real, in the table's order (a serialized FMU state's part).
+pub fn encode_reals<T: Table>(values: &T, w: &mut Writer) {
+    for vr in T::settable_reals() {
+        w.f(values.settable_real(vr).expect("a settable Real"));
+    }
+}
+
+/// What `encode_reals` wrote, checked as `set_reals` checks it: a state cannot bring in a
+/// value that fmi2SetReal would refuse.
+pub fn decode_reals<T: Table>(
+    r: &mut Reader,
+    check: impl Fn(&T) -> Option<String>,
+) -> Result<T, String> {
+    let mut values = T::start();
+    for vr in T::settable_reals() {
+        values.set_settable_real(vr, r.f()?);
+    }
+    for vr in T::settable_reals() {
+        let name = T::variable(vr).expect("a table variable").name;
+        let x = values.settable_real(vr).expect("a settable Real");
+        if let Some(why) = value_violation::<T>(vr, name, x) {
+            return Err(why);
         }
     }
-    law.check()
+    match check(&values) {
+        Some(why) => Err(why),
+        None => Ok(values),
+    }
 }
 
 impl<L: Law> Slave for Algebraic<L> {
@@ -141,21 +193,7 @@ impl<L: Law> Slave for Algebraic<L> {
         values: &[f64],
         _running: bool,
     ) -> Result<(), Failure> {
-        let mut law = self.law.clone();
-        for (&vr, &x) in vrs.iter().zip(values) {
-            let v = lookup::<L>(vr, "Real")?;
-            if !v.settable {
-                return Err(error(format!("{} is an output: it cannot be set", v.name)));
-            }
-            if let Some(why) = value_violation::<L>(vr, v.name, x) {
-                return Err(error(why));
-            }
-            law.set_settable_real(vr, x);
-        }
-        if let Some(why) = law.check() {
-            return Err(error(why));
-        }
-        self.law = law;
+        self.law = set_reals(&self.law, vrs, values, L::check)?;
         Ok(())
     }
 
@@ -170,24 +208,15 @@ impl<L: Law> Slave for Algebraic<L> {
     }
 
     fn encode(&self, w: &mut Writer) {
-        for vr in L::settable_reals() {
-            w.f(self.law.settable_real(vr).expect("a settable Real"));
-        }
+        encode_reals(&self.law, w);
         w.f(self.start_time);
         w.f(self.time);
     }
 
-    /// What `encode` wrote, checked as fmi2SetReal checks it: a state cannot bring in a value
-    /// that fmi2SetReal would refuse.
+    /// What `encode` wrote, checked as fmi2SetReal checks it.
     fn decode(r: &mut Reader) -> Result<Self, String> {
-        let mut law = L::start();
-        for vr in L::settable_reals() {
-            law.set_settable_real(vr, r.f()?);
-        }
+        let law = decode_reals(r, L::check)?;
         let (start_time, time) = (r.f()?, r.f()?);
-        if let Some(why) = violation(&law) {
-            return Err(why);
-        }
         if !(start_time.is_finite() && time.is_finite() && time >= start_time) {
             return Err(format!(
                 "start time {start_time} s and time {time} s: must be finite, in this order"
@@ -202,25 +231,21 @@ impl<L: Law> Slave for Algebraic<L> {
 }
 
 /// Defines, in a model crate whose `variables` module is generated from its table (`Var`,
-/// `VARIABLES`, `Params`, `Inputs`, `GUID`, `MODEL_NAME`, `LOG_CATEGORIES`), the struct `$law`
-/// holding `params` and `inputs`, its [`Table`], the instance type `$fmu` =
-/// `Algebraic<$law>` and the exported fmi2* functions. The crate implements [`Law`] for
-/// `$law`.
+/// `VARIABLES`, `Params`, `Inputs`, `GUID`, `MODEL_NAME`, `LOG_CATEGORIES`), the struct `$name`
+/// holding `params` and `inputs`, and its [`Table`].
 // `crate::variables` on purpose: the model crate's generated table, not this crate's.
 #[allow(clippy::crate_in_macro_def)]
 #[macro_export]
-macro_rules! algebraic_fmu {
-    ($law:ident, $fmu:ident) => {
-        /// The parameters and inputs (everything an instance holds besides its time).
+macro_rules! values_table {
+    ($name:ident) => {
+        /// The parameters and inputs as the master set them.
         #[derive(Clone, Debug, PartialEq, Default)]
-        pub struct $law {
+        pub struct $name {
             pub params: crate::variables::Params,
             pub inputs: crate::variables::Inputs,
         }
 
-        pub type $fmu = $crate::algebraic::Algebraic<$law>;
-
-        impl $crate::algebraic::Table for $law {
+        impl $crate::algebraic::Table for $name {
             const MODEL_NAME: &'static str = crate::variables::MODEL_NAME;
             const LOG_CATEGORIES: &'static [&'static str] = crate::variables::LOG_CATEGORIES;
 
@@ -276,6 +301,19 @@ macro_rules! algebraic_fmu {
                 }
             }
         }
+    };
+}
+
+/// Defines, in a model crate with a generated `variables` module, the struct `$law` holding
+/// `params` and `inputs` with its [`Table`] (see [`values_table!`](crate::values_table)), the
+/// instance type `$fmu` = `Algebraic<$law>` and the exported fmi2* functions. The crate
+/// implements [`Law`] for `$law`.
+#[macro_export]
+macro_rules! algebraic_fmu {
+    ($law:ident, $fmu:ident) => {
+        $crate::values_table!($law);
+
+        pub type $fmu = $crate::algebraic::Algebraic<$law>;
 
         $crate::export_fmi2!($fmu);
     };
