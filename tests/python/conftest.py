@@ -99,14 +99,15 @@ class Instance:
     """An FMU2Slave with a logger that records (status, category, message) of every log call,
     and name-based typed get/set."""
 
-    def __init__(self, unzip_dir, md, name="inst", guid=None, logging_on=False, instantiate=True):
+    def __init__(self, unzip_dir, md, name="inst", guid=None, logging_on=False, instantiate=True,
+                 model_identifier=MODEL_IDENTIFIER):
         self.md = md
         self.vars = {v.name: v for v in md.modelVariables}
         self.messages = []
         self.slave = FMU2Slave(
             guid=md.guid if guid is None else guid,
             unzipDirectory=unzip_dir,
-            modelIdentifier=MODEL_IDENTIFIER,
+            modelIdentifier=model_identifier,
             instanceName=name,
         )
 
