@@ -54,13 +54,34 @@ not used, so the traces of the base scenes do not change.  All can append the ou
 F_B_y (mesh force on B in the paper frame, rig-and-modes.md section 1;
 simulate(bearing_force=...), default: rigid only).
 
+INTERNAL PAIR (internal = true, planetary.md section 1; standard geometry only).  In the interface
+frame (theta_B = -psi_B, forward drive turns both wheels the same way) the spec's internal objects
+give exactly the enumeration above: forward pair k has s_A = s_a + u_A - k p_b and delta = dte,
+backward pair k has s_A = sigma_b1 - u_A + k p_b (same sigma_b1) and delta = -backlash - dte (the
+internal closure rBb eB - rAb tA = 2 d cos(alpha_w) inv(alpha_w) + j_n), and the gates are the
+same conditions on s_A and delta.  The torque table and v_s = omega_A s_A - omega_B s_B, written
+with w_A = -omega_A, w_B = -omega_B, are the external expressions in the interface frame.  What
+differs: s_B = s_A + L - delta and the Johnson radius sum rho_B - rho_A = L - delta (Geometry.kappa
+= -1 turns L + delta into L - delta).  Contact model 3 is refused (not available yet); rigid
+contact, shape deviations and the bearing-force outputs are not implemented here for it.
+
+CENTRE DISTANCE (center_distance_error, planetary.md section 2): Geometry recomputes alpha_w, d,
+L, s_a and the backlash at the actual distance (base and tip radii and base thicknesses nominal);
+with center_distance_error = 0 it does not run, so the nominal numbers are bit-identical.
+
 Readings of the spec where it leaves room (each is marked where it is implemented):
 * gate ties at a restart count as inside (closed gate, the spec's ">="); an exact equilibrium
   on a gate boundary selects "inside" (GearMesh._classify);
 * reported forces are clamped at 0 (an event instant may leave delta at -1e-21);
 * eps outside [1, 2] and zB/zA != zB_nominal/zA_nominal are rejected for both geometries;
 * inputs are piecewise linear between the table rows (a repeated time is a step and the
-  value after it holds from that time on, as fmpy's after_event).
+  value after it holds from that time on, as fmpy's after_event);
+* with center_distance_error != 0 every check (interference, eps, j_n >= 0) is made on the
+  ACTUAL geometry only: a pair whose nominal geometry would be refused is accepted if its axes'
+  actual position cures it;
+* internal pair: the tip and trochoid interference check of planetary.md section 1 (pinion tip
+  corners followed through the mesh) is NOT implemented in this reference; s_a < 0, r_Ba <= rBb,
+  eps outside [1, 2] and pointed teeth (top land <= 0, backlash thinning included) are refused.
 """
 
 from __future__ import annotations
@@ -112,10 +133,12 @@ DEFAULTS = {
     "tip_relief_A": 0.0, "tip_relief_length_A": 0.0, "tip_relief_B": 0.0, "tip_relief_length_B": 0.0,
     "tip_relief_shape": 1, "ecc_A": 0.0, "ecc_B": 0.0, "ecc_phase_A": 0.0, "ecc_phase_B": 0.0,
     "pitch_errors_A": "", "pitch_errors_B": "",
+    # internal gear pair and the actual centre distance (planetary.md sections 1-2)
+    "internal": False, "center_distance_error": 0.0,
 }
 INTEGER_PARAMS = {"geometry", "zA_nominal", "zB_nominal", "zA", "zB", "contacts_per_flank", "solver",
                   "contact_model", "tip_relief_shape"}
-BOOLEAN_PARAMS = {"backward_contacts"}
+BOOLEAN_PARAMS = {"backward_contacts", "internal"}
 STRING_PARAMS = {"pitch_errors_A", "pitch_errors_B"}
 
 
@@ -230,26 +253,66 @@ def make_params(start_values: dict | None = None) -> dict:
 
 
 class Geometry:
-    """alpha_w, rAb, rBb, d, L, s_a, s_b, p_b, eps, m_c, tA, tB and derived values."""
+    """alpha_w, rAb, rBb, d, L, s_a, s_b, p_b, eps, m_c, tA, tB and derived values.
+
+    internal = True (planetary.md section 1): A is a pinion inside the ring B (standard geometry
+    only); kappa = -1 (+1 for an external pair) is the sign that turns the external formulas
+    into the internal ones where they differ: rho_A + rho_B = L + delta becomes
+    rho_B - rho_A = L - delta (= L + kappa delta), and s_B = rho - kappa s_A.  The ring's space
+    on its base circle eB (and tB = 2 pi/zB - eB) replace the external tB formula.
+
+    center_distance_error != 0 (planetary.md section 2): base radii, tip radii and base
+    thicknesses stay those of the nominal geometry; alpha_w, d, L, s_a and the backlash follow
+    from the actual centre distance (_actual_centre_distance).  With center_distance_error = 0
+    that step is skipped, so every nominal number is computed exactly as before it existed.
+    center_distance and backlash_actual are the calculated parameters of the same names;
+    self.backlash is the actual backlash too (the backward flank's offset everywhere)."""
 
     def __init__(self, p: dict):
         j = p["backlash"]
+        self.internal = bool(p.get("internal", False))
+        self.kappa = -1.0 if self.internal else 1.0
         if p["geometry"] == 1:
+            if self.internal:
+                raise GeometryError("internal = true needs the standard geometry (geometry = 2); "
+                                    "the paper geometry has no internal pair (planetary.md section 1)")
             self._paper(p, j)
         elif p["geometry"] == 2:
-            self._standard(p, j)
+            if self.internal:
+                self._standard_internal(p, j)
+            else:
+                self._standard(p, j)
         else:
             raise GeometryError(f"geometry must be 1 (paper) or 2 (standard), got {p['geometry']}")
         self.backlash = j
+        self.center_distance_error = float(p.get("center_distance_error", 0.0))
+        self.d_nominal = self.d
+        if self.center_distance_error != 0.0:
+            self._actual_centre_distance(self.center_distance_error)
+        self.center_distance = self.d
+        self.backlash_actual = self.backlash
+        at = ""
+        if self.center_distance_error != 0.0:
+            at = (f" at the actual centre distance d = {self.d!r} m (nominal {self.d_nominal!r} m, "
+                  f"center_distance_error = {self.center_distance_error!r} m)")
         self.eps = (self.s_b - self.s_a) / self.p_b
-        if self.s_a < 0.0 or self.s_b > self.L:
+        if self.internal:
+            if self.s_a < 0.0:
+                raise GeometryError(
+                    f"internal pair: s_a = {self.s_a!r} m < 0: the ring's tip circle (r_Ba = "
+                    f"{self.r_tipB!r} m) reaches past K_A, involute interference at the pinion's "
+                    f"root (sqrt(r_Ba^2 - rBb^2) = {self.tipB_roll!r} m < L = {self.L!r} m){at}; "
+                    f"a positive xB cures it")
+        elif self.s_a < 0.0 or self.s_b > self.L:
             raise GeometryError(
                 f"interference: contact segment [s_a, s_b] = [{self.s_a!r}, {self.s_b!r}] m "
-                f"must lie inside [0, L] = [0, {self.L!r}] m")
+                f"must lie inside [0, L] = [0, {self.L!r}] m{at}")
         if self.eps < 1.0 - 1e-9:
-            raise GeometryError(f"contact ratio eps = {self.eps!r} < 1")
+            raise GeometryError(f"contact ratio eps = {self.eps!r} < 1 (s_a = {self.s_a!r} m, "
+                                f"s_b = {self.s_b!r} m, p_b = {self.p_b!r} m){at}")
         if self.eps > 2.0 + 1e-9:
-            raise GeometryError(f"contact ratio eps = {self.eps!r} > 2 (more than two pairs per flank)")
+            raise GeometryError(f"contact ratio eps = {self.eps!r} > 2 (more than two pairs per flank)"
+                                f"{at}")
         cpf = p["contacts_per_flank"]
         if cpf == 0:
             self.m_c = math.ceil(self.eps - 1e-9)
@@ -263,9 +326,42 @@ class Geometry:
         self.phi_min = aw - self.s_b / self.rAb
         self.phi_max = self.phi_min + self.m_c * self.dA
         self.phiA_f1 = aw - self.s_a / self.rAb
-        self.phiB_f1 = aw + math.pi - (self.L - self.s_a) / self.rBb
-        # b1's s_A at theta_A = 0: phiA(b1) = phiA(f2) + tA = phiA(f1) - dA + tA
+        if self.internal:   # planetary.md section 1, "Initial values"
+            self.phiB_f1 = aw - (self.s_a + self.L) / self.rBb
+        else:
+            self.phiB_f1 = aw + math.pi - (self.L - self.s_a) / self.rBb
+        # b1's s_A at theta_A = 0: phiA(b1) = phiA(f2) + tA = phiA(f1) - dA + tA (both pair kinds)
         self.sigma_b1 = 2.0 * self.rAb * aw - self.s_a - self.p_b + self.rAb * self.tA
+
+    def rho(self, delta):
+        """rho_A + rho_B (external) or rho_B - rho_A (internal) of a pair at penetration delta:
+        L + delta or L - delta; the Johnson law's radius sum."""
+        return self.L + self.kappa * delta
+
+    def _actual_centre_distance(self, err):
+        """planetary.md section 2: the operating geometry at d = d_nominal + err.  Base radii,
+        tip radii and the base thickness angles tA, tB (eB) are the nominal ones."""
+        d = self.d + err
+        c = self.rBb - self.rAb if self.internal else self.rAb + self.rBb   # = d cos(alpha_w)
+        if not (d > 0.0 and c < d):
+            raise GeometryError(
+                f"center_distance_error = {err!r} m: the actual centre distance d = {d!r} m "
+                f"leaves no line of action (d cos(alpha_w) = {c!r} m must be < d)")
+        aw = math.acos(c / d)
+        L = d * math.sin(aw)
+        if self.internal:
+            s_a = self.tipB_roll - L
+            # j_n = rBb eB - rAb tA - 2 d cos(alpha_w) inv(alpha_w), rBb eB = p_b - rBb tB
+            j = self.rBb * self.eB - self.rAb * self.tA - 2.0 * c * involute(aw)
+        else:
+            s_a = L - self.tipB_roll
+            j = self.p_b + 2.0 * c * involute(aw) - self.rAb * self.tA - self.rBb * self.tB
+        if j < 0.0:
+            raise GeometryError(
+                f"center_distance_error = {err!r} m jams the teeth: the actual backlash j_n = "
+                f"{j!r} m < 0 at d = {d!r} m (nominal {self.d!r} m, backlash {self.backlash!r} m, "
+                f"alpha_w = {aw!r} rad)")
+        self.d, self.alpha_w, self.L, self.s_a, self.backlash = d, aw, L, s_a, j
 
     def _paper(self, p, j):
         zAn, zBn, zA, zB = p["zA_nominal"], p["zB_nominal"], p["zA"], p["zB"]
@@ -290,6 +386,7 @@ class Geometry:
         self.p_b = self.rAb * self.dA
         self.r_tipA = math.hypot(self.rAb, self.s_b)
         self.r_tipB = math.hypot(self.rBb, self.L - self.s_a)
+        self.tipB_roll = self.L - self.s_a       # sqrt(r_tipB^2 - rBb^2): B's tip on its involute
         # equal tooth thickness on the operating pitch circles (radii rA, rB):
         # s'_A + s'_B = (p_b - j)/cos(alpha_w), tA = s'_A/rA + 2 inv(alpha_w)
         s_op = (self.p_b - j) / (2.0 * math.cos(aw))
@@ -313,7 +410,8 @@ class Geometry:
             raise GeometryError(f"tip radius inside the base circle: r_tipA = {self.r_tipA!r}, "
                                 f"rAb = {self.rAb!r}, r_tipB = {self.r_tipB!r}, rBb = {self.rBb!r}")
         self.s_b = math.sqrt(self.r_tipA ** 2 - self.rAb ** 2)
-        self.s_a = self.L - math.sqrt(self.r_tipB ** 2 - self.rBb ** 2)
+        self.tipB_roll = math.sqrt(self.r_tipB ** 2 - self.rBb ** 2)
+        self.s_a = self.L - self.tipB_roll
         self.dA = 2.0 * math.pi / zA
         self.dB = 2.0 * math.pi / zB
         self.p_b = self.rAb * self.dA
@@ -321,6 +419,52 @@ class Geometry:
         # t = s/r + 2 inv(a0); then backlash/2 off each base arc
         self.tA = (math.pi + 4.0 * xA * math.tan(a0)) / zA + 2.0 * involute(a0) - j / (2.0 * self.rAb)
         self.tB = (math.pi + 4.0 * xB * math.tan(a0)) / zB + 2.0 * involute(a0) - j / (2.0 * self.rBb)
+
+    def _standard_internal(self, p, j):
+        """planetary.md section 1: pinion A (external teeth) inside ring B (internal teeth)."""
+        m, zA, zB = p["module"], p["zA"], p["zB"]
+        a0, xA, xB, ha = p["pressure_angle"], p["xA"], p["xB"], p["addendum"]
+        if not zA < zB:
+            raise GeometryError(f"internal pair: zA = {zA} must be smaller than zB = {zB}")
+        inv_w = involute(a0) + 2.0 * math.tan(a0) * (xB - xA) / (zB - zA)
+        aw = inverse_involute(inv_w)
+        self.alpha_w = aw
+        self.zA, self.zB = zA, zB
+        self.d = m * (zB - zA) / 2.0 * math.cos(a0) / math.cos(aw)
+        self.rAb = m * zA * math.cos(a0) / 2.0
+        self.rBb = m * zB * math.cos(a0) / 2.0
+        self.L = self.d * math.sin(aw)
+        self.r_tipA = m * zA / 2.0 + m * (ha + xA)
+        self.r_tipB = m * zB / 2.0 - m * (ha - xB)      # the ring's tips point inwards
+        if self.r_tipA <= self.rAb:
+            raise GeometryError(f"tip radius inside the base circle: r_tipA = {self.r_tipA!r}, "
+                                f"rAb = {self.rAb!r}")
+        if self.r_tipB <= self.rBb:
+            raise GeometryError(f"internal pair: the ring's tip radius r_Ba = {self.r_tipB!r} m "
+                                f"<= its base radius rBb = {self.rBb!r} m")
+        self.s_b = math.sqrt(self.r_tipA ** 2 - self.rAb ** 2)
+        self.tipB_roll = math.sqrt(self.r_tipB ** 2 - self.rBb ** 2)
+        self.s_a = self.tipB_roll - self.L
+        self.dA = 2.0 * math.pi / zA
+        self.dB = 2.0 * math.pi / zB
+        self.p_b = self.rAb * self.dA
+        self.tA = (math.pi + 4.0 * xA * math.tan(a0)) / zA + 2.0 * involute(a0) - j / (2.0 * self.rAb)
+        # the ring's tooth SPACE on its base circle (the negative of an external tooth with
+        # shift xB, widened by half the backlash); its tooth is what is left of the pitch
+        self.eB = (math.pi + 4.0 * xB * math.tan(a0)) / zB + 2.0 * involute(a0) + j / (2.0 * self.rBb)
+        self.tB = 2.0 * math.pi / zB - self.eB
+        # pointed teeth: angular thickness at the tip, tA - 2 inv(alpha) for the pinion; the
+        # ring's tooth widens outwards (tB + 2 inv(alpha) at radius r) and its tip is its
+        # innermost circle r_Ba
+        landA = self.tA - 2.0 * involute(math.acos(self.rAb / self.r_tipA))
+        landB = self.tB + 2.0 * involute(math.acos(self.rBb / self.r_tipB))
+        if landA <= 0.0 or landB <= 0.0:
+            raise GeometryError(
+                f"pointed tooth (no top land): pinion tip thickness {landA * self.r_tipA!r} m at "
+                f"r_Aa = {self.r_tipA!r} m, ring tip thickness {landB * self.r_tipB!r} m at "
+                f"r_Ba = {self.r_tipB!r} m")
+        self.top_land_A = landA * self.r_tipA
+        self.top_land_B = landB * self.r_tipB
 
 
 # --------------------------------------------------------------------------------------------
@@ -445,6 +589,17 @@ class GearMesh:
             raise ValueError(f"restitution must lie in [0, 1], got {self.p['restitution']!r}")
         from . import deviations_ref as D
         self.deviations = D.deviations_active(self.p)
+        if self.g.internal:
+            if self.p["contact_model"] == 3:
+                raise ValueError("contact_model = 3 (tooth structure) is not available yet for an "
+                                 "internal pair (planetary.md section 1: the ring tooth's structure "
+                                 "is not specified)")
+            if self.p["contact_model"] == 2 or self.deviations:
+                raise NotImplementedError("internal pair: rigid contact and shape deviations are "
+                                          "not implemented in this reference (contact model 1 only)")
+        if self.p["contact_model"] == 3 and self.g.center_distance_error != 0.0:
+            raise NotImplementedError("center_distance_error with contact_model = 3 is not "
+                                      "implemented in this reference")
         if self.deviations and self.p["contact_model"] == 2:
             raise ValueError("shape deviations are not implemented for rigid contact in this reference")
         # contact model 3 or shape deviations: the per-pair mesh of deviations_ref (DevMesh);
@@ -462,7 +617,7 @@ class GearMesh:
         is smooth; the segment ends (event) before either extension is used for real.
         """
         g, p = self.g, self.p
-        rAb, rBb, L, E_star = g.rAb, g.rBb, g.L, g.E_star
+        rAb, rBb, L, E_star, kap = g.rAb, g.rBb, g.L, g.E_star, g.kappa
         width, chi, mu, v_reg = p["width"], p["chi"], p["mu"], p["v_reg"]
         wB = (rAb * wA - v) / rBb
         mA = mB = ploss = 0.0
@@ -474,10 +629,12 @@ class GearMesh:
                 d, dd = e, v
             else:
                 d, dd = -g.backlash - e, -v
+            # radius sum L + d (external) or L - d (internal): kap = +-1 (exact: x*1.0 = x, so
+            # the external numbers are those of the code before the internal pair existed)
             if d >= 0.0:
-                N = johnson_N(d, L + d, E_star)
+                N = johnson_N(d, L + kap * d, E_star)
             else:
-                N = -johnson_N(-d, L - d, E_star)
+                N = -johnson_N(-d, L - kap * d, E_star)
             Fn = width * N * (1.0 + chi * dd)
             pdamp = width * N * chi * dd * dd
             for k in ks:
@@ -485,9 +642,12 @@ class GearMesh:
                     sA = g.s_a + uA - k * g.p_b
                 else:
                     sA = g.sigma_b1 - uA + k * g.p_b
-                sB = L + d - sA
+                # external: s_B = L + delta - s_A; internal: s_B = s_A + L - delta
+                sB = L + kap * d - kap * sA
                 if mu != 0.0:
-                    vs = -wA * sA + wB * sB          # paper frame: omega_A = -w_A, omega_B = w_B
+                    # paper frame: omega_A = -w_A, omega_B = w_B (external) or -w_B (internal,
+                    # with v_s = omega_A s_A - omega_B s_B): the same expression in w
+                    vs = -wA * sA + wB * sB
                     Ft = mu * math.tanh(vs / v_reg) * Fn
                 else:
                     vs = Ft = 0.0
@@ -804,7 +964,7 @@ class GearMesh:
             else:
                 d = -g.backlash - e
                 sA = g.sigma_b1 - uA + k * g.p_b
-            sB = L + d - sA
+            sB = L + g.kappa * d - g.kappa * sA
             vs = -wA * sA + wB * sB
             Fn = max(Fn, 0.0)
             Ft = p["mu"] * math.tanh(vs / p["v_reg"]) * Fn if p["mu"] != 0.0 else 0.0
@@ -826,6 +986,11 @@ class GearMesh:
         load_share); per_pair = True forces it for contact model 1 without deviations (tests)."""
         if bearing_force is None:
             bearing_force = self.p["contact_model"] == 2
+        if bearing_force and self.g.internal:
+            raise NotImplementedError("bearing force outputs of an internal pair are not "
+                                      "implemented in this reference")
+        if per_pair and self.g.internal:
+            raise NotImplementedError("per_pair: DevMesh has no internal pair in this reference")
         if self.dev_mesh is not None or per_pair:
             from . import deviations_ref as D
             dm = self.dev_mesh if self.dev_mesh is not None else D.DevMesh(self)
@@ -991,12 +1156,12 @@ class GearMesh:
 
     # ---------------------------------------------------------------- energy helpers
     def elastic_energy_pair(self, delta):
-        """width * integral_0^delta N(s; rho = L + s) ds  [J]."""
+        """width * integral_0^delta N(s; rho = L + s) ds  [J] (rho = L - s: internal)."""
         from scipy.integrate import quad
         if delta <= 0.0:
             return 0.0
         g = self.g
-        val, _ = quad(lambda s: johnson_N(s, g.L + s, g.E_star), 0.0, delta,
+        val, _ = quad(lambda s: johnson_N(s, g.L + g.kappa * s, g.E_star), 0.0, delta,
                       epsabs=0.0, epsrel=1e-13, limit=200)
         return self.p["width"] * val
 
@@ -1699,7 +1864,8 @@ def quasi_static_dte(start_values: dict, n_pairs: int) -> float:
     Rigid rolling (w_B = w_A rAb/rBb) gives the common acceleration
     w_A' = (tau_A + (rAb/rBb)(tau_B - c_load w_B)) / (J_A + J_B (rAb/rBb)^2); the line force
     is F = (tau_A - J_A w_A')/rAb, shared by n_pairs pairs; delta solves the Johnson law
-    (eq. 5.1) for N = F/(n_pairs width) with rho_A + rho_B = L + delta (fixed point).
+    (eq. 5.1) for N = F/(n_pairs width) with rho_A + rho_B = L + delta (fixed point; internal
+    pair: rho_B - rho_A = L - delta).
     Used for dte_start so that a scene starts without the large first transient."""
     m = GearMesh(start_values)
     p, g = m.p, m.g
@@ -1713,7 +1879,7 @@ def quasi_static_dte(start_values: dict, n_pairs: int) -> float:
     N = F / (n_pairs * p["width"])
     d = johnson_delta(N, g.L, g.E_star)
     for _ in range(50):
-        d_new = johnson_delta(N, g.L + d, g.E_star)
+        d_new = johnson_delta(N, g.L + g.kappa * d, g.E_star)   # L - d for an internal pair
         if d_new == d:
             break
         d = d_new

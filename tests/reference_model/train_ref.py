@@ -70,6 +70,27 @@ W_ext includes c_load); W_loss = int (mesh P_loss + shafts' d (dq/dt)^2); E_gate
 the jumps of E_el at events (pairs entering or leaving the gate loaded, damped releases);
 energy_residual = E_kin + E_el + W_loss - W_ext - E_gate - (its value at t = 0).
 
+INTERNAL MESHES (planetary.md section 1; mesh[m].internal = true, standard geometry).  Across an
+internal mesh the forward sense is KEPT (planetary.md section 3).  Its frame is the housing frame
+rotated by beta + pi (O_B at (-d, 0)) and mirrored when sigma_A = +1: chi = s_m (psi + mount -
+beta - pi).  With s_m sigma_B = -1 the ring's tooth n has its axis at chi - n dB, and section 1's
+roots (forward chi + k dz + tB/2, backward chi + k dz - tB/2) with s_B = rBb (alpha_w -+ phiB) give
+
+    forward,  B tooth n:  s_B = rBb (alpha_w - chiB0 - tB/2) + u_B + n p_b
+    backward, B tooth n:  s_B = rBb (alpha_w + chiB0 - tB/2) - u_B - n p_b
+
+and delta = s_A - s_B + L.  In terms of s~_B = 2 L - s_B these are the external forms above
+(SfB = 2L - rBb (alpha_w - chiB0 - tB/2), SbB = 2L - rBb (alpha_w + chiB0 - tB/2)), with
+delta = s_A + s~_B - L and the ring's tip gate s_B >= L + s_a written s~_B <= L - s_a: so the
+pairing, gating, events and placement code is shared, and only the force differs: rho_B - rho_A
+= L - delta in the Johnson law, and the real s_B = s_A + L - delta in the friction and torques
+(whose forward-sense table is the external one: planetary.md section 1's paper-frame table with
+theta_B = -psi_B).
+
+CENTRE DISTANCE (planetary.md section 2): mesh[m].center_distance_error goes to the single
+mesh's Geometry, which computes alpha_w, d, L, s_a and the actual backlash at the actual
+distance; the train uses those everywhere (center_angle is still the direction of O_A -> O_B).
+
 Readings of the spec where it leaves room are listed in the report and marked in the code.
 """
 
@@ -272,8 +293,11 @@ class TrainMesh:
         self.m = m                      # 1-based index
         self.p = p                      # single-mesh parameter dict (make_params)
         self.g = G.Geometry(p)
+        self.internal = self.g.internal
         self.A, self.B = A, B           # 0-based body indices
         self.beta, self.mount_A, self.mount_B = beta, mount_A, mount_B
+        # the frame's rotation: beta (external), beta + pi (internal: O_B at (-d, 0))
+        self.beta_frame = beta + math.pi if self.internal else beta
         self.dte0 = p["dte_start"]
         self.width, self.chi, self.mu, self.v_reg = p["width"], p["chi"], p["mu"], p["v_reg"]
         self.bwd = bool(p["backward_contacts"])
@@ -282,16 +306,28 @@ class TrainMesh:
 
     # ---------------------------------------------------------------- placement (spec 3-4)
     def chi_of(self, psi, mount):
-        return self.s * (psi + mount - self.beta)
+        return self.s * (psi + mount - self.beta_frame)
 
     def psi_of(self, chi, mount):
-        return self.s * chi + self.beta - mount      # inverse of chi_of (s = +-1)
+        return self.s * chi + self.beta_frame - mount      # inverse of chi_of (s = +-1)
 
     def place_other(self, psi_known, known_is_A):
         """psi(0) of the gear not yet placed: forward delta of the pairs = dte_start, reduced to
         (-pi/z, pi/z] of that gear by whole teeth (spec section 4)."""
         g = self.g
         aw = g.alpha_w
+        if self.internal:
+            # delta = rAb(aw - chiA + tA/2) - rBb(aw - chiB - tB/2) + L for tooth 0 of each
+            # (then reduce psi by whole teeth, which changes only the pairing)
+            if known_is_A:
+                chiA = self.chi_of(psi_known, self.mount_A)
+                sA = g.rAb * (aw - chiA + g.tA / 2)
+                chiB = aw - g.tB / 2 - (sA + g.L - self.dte0) / g.rBb
+                return reduce_angle(self.psi_of(chiB, self.mount_B), g.zB)
+            chiB = self.chi_of(psi_known, self.mount_B)
+            sB = g.rBb * (aw - chiB - g.tB / 2)
+            chiA = aw + g.tA / 2 - (sB - g.L + self.dte0) / g.rAb
+            return reduce_angle(self.psi_of(chiA, self.mount_A), g.zA)
         # delta(i, j) = rAb(aw - chiA - i dA + tA/2) + rBb(aw + pi - chiB - j dB + tB/2) - L
         # (mesh-frame tooth indices i, j); any integer i + j: choose 0, then reduce psi.
         if known_is_A:
@@ -311,9 +347,13 @@ class TrainMesh:
         chiA0 = self.chi_of(psiA0, self.mount_A)
         chiB0 = self.chi_of(psiB0, self.mount_B)
         self.SfA = g.rAb * (aw - chiA0 + g.tA / 2)
-        self.SfB = g.rBb * (aw + math.pi - chiB0 + g.tB / 2)
         self.SbA = g.rAb * (aw + chiA0 + g.tA / 2)
-        self.SbB = g.rBb * (aw - math.pi + chiB0 + g.tB / 2)
+        if self.internal:    # s~_B = 2 L - s_B (module docstring, INTERNAL MESHES)
+            self.SfB = 2.0 * g.L - g.rBb * (aw - chiB0 - g.tB / 2)
+            self.SbB = 2.0 * g.L - g.rBb * (aw + chiB0 - g.tB / 2)
+        else:
+            self.SfB = g.rBb * (aw + math.pi - chiB0 + g.tB / 2)
+            self.SbB = g.rBb * (aw - math.pi + chiB0 + g.tB / 2)
         # forward: delta = SfA + SfB - L - K_f p_b (at t = 0) = dte_start
         cf = self.SfA + self.SfB - g.L - self.dte0
         self.Kf = round(cf / pb)
@@ -330,6 +370,7 @@ class TrainMesh:
     def sA_f(self, uA, n):
         return self.SfA + uA + n * self.g.p_b
 
+    # s_B below is s~_B = 2 L - s_B for an internal mesh (module docstring)
     def sB_f(self, uB, n):         # n: A tooth number; the B tooth is n + K_f
         return self.SfB - uB - (n + self.Kf) * self.g.p_b
 
@@ -357,20 +398,23 @@ class TrainMesh:
     def torques(self, uA, dte, wA, wB, v, kf, kb, detail=False):
         """Mesh torques on A and B (forward sense) and P_loss for fixed carrying sets."""
         g = self.g
-        rAb, rBb, L = g.rAb, g.rBb, g.L
+        rAb, rBb, L, kap = g.rAb, g.rBb, g.L, g.kappa
         mA = mB = ploss = 0.0
         forces = []
         for flank, ks in ((1, kf), (-1, kb)):
             if not ks:
                 continue
             d, dd = (dte, v) if flank == 1 else (-g.backlash - dte, -v)
-            # odd extension through 0: smooth inside a segment, never used past an event
-            N = G.johnson_N(d, L + d, g.E_star) if d >= 0.0 else -G.johnson_N(-d, L - d, g.E_star)
+            # odd extension through 0: smooth inside a segment, never used past an event;
+            # radius sum L + d (external), L - d (internal); kap*x is exact for kap = 1
+            N = (G.johnson_N(d, L + kap * d, g.E_star) if d >= 0.0
+                 else -G.johnson_N(-d, L - kap * d, g.E_star))
             Fn = self.width * N * (1.0 + self.chi * dd)
             ploss += len(ks) * self.width * N * self.chi * dd * dd
             for n in ks:
                 sA = self.sA_f(uA, n) if flank == 1 else self.sA_b(uA, n)
-                sB = L + d - sA
+                # the real s_B: L + delta - s_A (external), s_A + L - delta (internal)
+                sB = L + kap * d - kap * sA
                 if self.mu != 0.0:
                     vs = -wA * sA + wB * sB       # paper frame: omega_A = -w_A, omega_B = w_B
                     Ft = self.mu * math.tanh(vs / self.v_reg) * Fn
@@ -424,13 +468,14 @@ def pair_energy(mesh, delta):
     if delta <= 0.0:
         return 0.0
     g = mesh.g
-    rho = g.L + delta
+    kap = g.kappa        # internal mesh: rho(s) = L - s
+    rho = g.L + kap * delta
     main = johnson_energy_fixed_rho(delta, rho, g.E_star)
     corr = 0.0
     for xi, wi in zip(_GL_X, _GL_W):     # s = delta u^2, u in (0, 1): ds = 2 delta u du
         u = 0.5 * (xi + 1.0)
         s_ = delta * u * u
-        corr += wi * u * (G.johnson_N(s_, g.L + s_, g.E_star) - G.johnson_N(s_, rho, g.E_star))
+        corr += wi * u * (G.johnson_N(s_, g.L + kap * s_, g.E_star) - G.johnson_N(s_, rho, g.E_star))
     return mesh.width * (main + delta * corr)
 
 
@@ -439,7 +484,7 @@ def pair_energy_quad(mesh, delta):
     if delta <= 0.0:
         return 0.0
     g = mesh.g
-    val, _ = quad(lambda s: G.johnson_N(s, g.L + s, g.E_star), 0.0, delta,
+    val, _ = quad(lambda s: G.johnson_N(s, g.L + g.kappa * s, g.E_star), 0.0, delta,
                   epsabs=0.0, epsrel=1e-13, limit=200)
     return mesh.width * val
 
@@ -617,6 +662,9 @@ class GearTrain:
         sv = {k: p[f"mesh[{m}].{k}"] for k in MESH_PAIR_KEYS}
         mp = G.make_params(sv)
         cm = mp["contact_model"]
+        if mp["internal"] and cm == 3:
+            raise ValueError(f"mesh[{m}]: contact_model = 3 (tooth structure) is not available yet "
+                             "for an internal mesh (planetary.md section 1)")
         if cm == 2:
             raise ValueError(f"mesh[{m}].contact_model = 2: rigid contact is not available in a "
                              "gear train (gear-train.md section 1); use 1 (Johnson) or 3")
@@ -651,7 +699,9 @@ class GearTrain:
                 if j == 0 or self.parent[j] is not None:
                     continue
                 self.parent[j] = (k, i)
-                self.sigma[j] = -self.sigma[i] if k < self.nm else self.sigma[i]
+                # an external mesh flips the sense; an internal mesh and a shaft keep it
+                flips = k < self.nm and not self.meshes[k].internal
+                self.sigma[j] = -self.sigma[i] if flips else self.sigma[i]
                 self.order.append(j)
                 todo.append(j)
         T = np.zeros((nb, nb))
@@ -1217,7 +1267,7 @@ def static_delta(mesh: TrainMesh, F: float, n_pairs: int) -> float:
     N = F / (n_pairs * mesh.width)
     d = G.johnson_delta(N, g.L, g.E_star)
     for _ in range(50):
-        d_new = G.johnson_delta(N, g.L + d, g.E_star)
+        d_new = G.johnson_delta(N, g.L + g.kappa * d, g.E_star)   # L - d: internal mesh
         if d_new == d:
             break
         d = d_new
@@ -1313,6 +1363,8 @@ def idler_switch_phase(start_values: dict, delta2: float | None = None) -> float
     if tr.nm < 2:
         raise ValueError("idler phase: needs meshes 1 and 2")
     m1, m2 = tr.meshes[0], tr.meshes[1]
+    if m1.internal or m2.internal:
+        raise NotImplementedError("idler phase: external meshes only")
     if m1.B != m2.A:
         raise ValueError("idler phase: the idler must be B of mesh 1 and A of mesh 2")
     g1, g2 = m1.g, m2.g
