@@ -81,7 +81,11 @@ Readings of the spec where it leaves room (each is marked where it is implemente
   actual position cures it;
 * internal pair: the tip and trochoid interference check of planetary.md section 1 (pinion tip
   corners followed through the mesh) is NOT implemented in this reference; s_a < 0, r_Ba <= rBb,
-  eps outside [1, 2] and pointed teeth (top land <= 0, backlash thinning included) are refused.
+  eps outside [1, 2] and pointed teeth (top land <= 0, backlash thinning included) are refused,
+  and so is a pinion whose active profile reaches below the involute its rack cutter generates
+  (the project's rule kept by the FMU, not the spec's: s_a < m (zA/2 sin a0 - (h - xA)/sin a0),
+  h = 1.25 - 0.38 (1 - sin a0); Geometry._check_pinion_form).  The ring is cut by a pinion-type
+  cutter: no such rule for it.  (This reference does not apply the rule to external pairs.)
 """
 
 from __future__ import annotations
@@ -313,6 +317,8 @@ class Geometry:
         if self.eps > 2.0 + 1e-9:
             raise GeometryError(f"contact ratio eps = {self.eps!r} > 2 (more than two pairs per flank)"
                                 f"{at}")
+        if self.internal:
+            self._check_pinion_form(p, at)
         cpf = p["contacts_per_flank"]
         if cpf == 0:
             self.m_c = math.ceil(self.eps - 1e-9)
@@ -332,6 +338,32 @@ class Geometry:
             self.phiB_f1 = aw + math.pi - (self.L - self.s_a) / self.rBb
         # b1's s_A at theta_A = 0: phiA(b1) = phiA(f2) + tA = phiA(f1) - dA + tA (both pair kinds)
         self.sigma_b1 = 2.0 * self.rAb * aw - self.s_a - self.p_b + self.rAb * self.tA
+
+    # ISO 53 profile A rack cutter (dedendum and tip radius in modules), as the FMU's check
+    CUTTER_DEDENDUM = 1.25
+    CUTTER_TIP_RADIUS = 0.38
+
+    def _check_pinion_form(self, p, at):
+        """Internal pair: the pinion's active profile must lie on the involute its rack cutter
+        generates (the project's rule 'active profile below the involute', the FMU's
+        Geometry::check_teeth).  The cutter's straight flank ends h = 1.25 - 0.38 (1 - sin a0)
+        modules below its datum line; the involute it generates begins at roll distance
+        form_start_A = m (zA/2 sin a0 - (h - xA)/sin a0) from the base circle's tangent point, and
+        the lowest contact on the pinion is s_a (the ring's tip).  Refused when form_start_A >
+        s_a + 1e-12 L (the FMU's slack); form_start_A < 0 (a rack-undercut pinion) can never be
+        (s_a >= 0 is checked before).  The ring (B) is cut by a pinion-type cutter, so the rule is not applied to it.
+        Checked on the actual geometry (s_a at the actual centre distance)."""
+        m, a0, zA, xA = p["module"], p["pressure_angle"], p["zA"], p["xA"]
+        h = self.CUTTER_DEDENDUM - self.CUTTER_TIP_RADIUS * (1.0 - math.sin(a0))
+        start = m * zA / 2.0 * math.sin(a0) - (h - xA) * m / math.sin(a0)
+        self.form_start_A = start
+        if start > self.s_a + 1e-12 * self.L:
+            raise GeometryError(
+                f"active profile below the involute: the contact reaches the pinion's (wheel A's) "
+                f"flank s_a = {self.s_a!r} m from its base circle's tangent point, below where a "
+                f"rack cutter's straight flank generates the involute ({start!r} m; lower down is "
+                f"the root fillet: the ring's tip r_Ba = {self.r_tipB!r} m reaches into it){at}; "
+                f"a larger xB cures it")
 
     def rho(self, delta):
         """rho_A + rho_B (external) or rho_B - rho_A (internal) of a pair at penetration delta:
