@@ -96,7 +96,7 @@ fn main() {
                 continue;
             }
         };
-        let johnson = JohnsonLaw::new(g.l, g.e_star, WIDTH);
+        let johnson = JohnsonLaw::new(g.l, g.kappa, g.e_star, WIDTH);
         let structure = structure_law(&p, &g).expect("model 3");
         let stiffness = |law: &dyn ContactLaw| {
             let (_, mean, _) = static_mesh::cycle(law, &g, w, 2048);

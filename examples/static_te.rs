@@ -56,7 +56,7 @@ fn main() {
     }
     let g = Geometry::new(&p).unwrap_or_else(|e| panic!("{}", e.message));
     let w = torque / g.r_ab;
-    let johnson = JohnsonLaw::new(g.l, g.e_star, p.width);
+    let johnson = JohnsonLaw::new(g.l, g.kappa, g.e_star, p.width);
     let structure = structure_law(&p, &g).unwrap_or_else(|e| panic!("{}", e.message));
     if p.tip_relief_A == 0.0 && p.tip_relief_B == 0.0 {
         let pitch_point = g.l * g.r_ab / (g.r_ab + g.r_bb);

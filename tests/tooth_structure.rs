@@ -193,7 +193,7 @@ fn k_mesh_and_load_share() {
             ..standard(cm)
         };
         let g = Geometry::new(&p).unwrap();
-        let johnson = JohnsonLaw::new(g.l, g.e_star, p.width);
+        let johnson = JohnsonLaw::new(g.l, g.kappa, g.e_star, p.width);
         let structure = structure_law(&p, &g).unwrap();
         let law: &dyn ContactLaw = if cm == 1 { &johnson } else { &structure };
         let mut sim = Simulation::new(&p, &drive(), 0.0, 1e-8).unwrap();

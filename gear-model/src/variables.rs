@@ -66,6 +66,8 @@ impl Calculated {
             r_tipB: g.r_tip_b,
             base_pitch: g.p_b,
             contact_objects_per_flank: g.m_c as i32,
+            center_distance: g.d,
+            backlash_actual: g.j_n,
         }
     }
 }

@@ -1,5 +1,7 @@
-//! Gear geometry (spec §2): from the parameters to the numbers the contact model needs.
-//! Two front ends, the paper's and standard gear data, give the same `Geometry`.
+//! Gear geometry (spec §2, planetary.md §1-§2): from the parameters to the numbers the contact
+//! model needs. Two front ends, the paper's and standard gear data (an external pair or a
+//! pinion in a ring), give the gears and their nominal operating geometry; the operating
+//! geometry then follows from the actual centre distance, which is how every pair gets it.
 
 use super::ModelError;
 use crate::variables::Params;
@@ -9,12 +11,19 @@ use std::f64::consts::PI;
 pub struct Geometry {
     pub z_a: f64,
     pub z_b: f64,
+    /// Wheel B is a ring with internal teeth (planetary.md §1).
+    pub internal: bool,
+    /// +1 for an external pair, -1 for an internal one: B's contact coordinate is
+    /// s_B = L + kappa (delta - s_A), and the Johnson law's radius rho_A + kappa rho_B = L + kappa delta.
+    pub kappa: f64,
     /// Operating pressure angle alpha_w.
     pub alpha_w: f64,
     pub r_ab: f64,
     pub r_bb: f64,
-    /// Centre distance.
+    /// Actual centre distance.
     pub d: f64,
+    /// Nominal operating centre distance (of the front end).
+    pub d_nominal: f64,
     /// Length of the line of action |K_A K_B|.
     pub l: f64,
     /// Contact segment [s_a, s_b] on the line of action, from K_A.
@@ -28,9 +37,11 @@ pub struct Geometry {
     pub eps: f64,
     /// Contact objects per flank.
     pub m_c: usize,
-    /// Base tooth thickness angles (with backlash).
+    /// Base tooth thickness angles (with backlash, at the nominal centre distance).
     pub t_a: f64,
     pub t_b: f64,
+    /// Normal backlash at the actual centre distance (the thickness closure).
+    pub j_n: f64,
     pub r_tip_a: f64,
     pub r_tip_b: f64,
     /// Effective modulus E*.
@@ -64,14 +75,29 @@ fn inv_inverse(target: f64) -> Option<f64> {
 }
 
 impl Geometry {
+    /// The pair at its nominal centre distance plus `center_distance_error`.
     pub fn new(p: &Params) -> Result<Geometry, ModelError> {
+        Self::at_distance(p, None)
+    }
+
+    /// The pair with its axes `axes` apart (None: the nominal operating distance), plus
+    /// `center_distance_error` (planetary.md §2). The gears (base and tip radii, base tooth
+    /// thicknesses with the `backlash` parameter) are those of the front end at the nominal
+    /// distance; alpha_w, L, the contact segment and the backlash follow from the actual one.
+    pub fn at_distance(p: &Params, axes: Option<f64>) -> Result<Geometry, ModelError> {
         let e_star = 1.0 / ((1.0 - p.nu_A * p.nu_A) / p.E_A + (1.0 - p.nu_B * p.nu_B) / p.E_B);
         let (z_a, z_b) = (p.zA as f64, p.zB as f64);
         let (d_a, d_b) = (2.0 * PI / z_a, 2.0 * PI / z_b);
-        let mut g = match p.geometry {
-            1 => Self::paper(p, e_star)?,
-            2 => Self::standard(p, e_star)?,
-            other => {
+        let mut g = match (p.geometry, p.internal) {
+            (1, false) => Self::paper(p, e_star)?,
+            (1, true) => {
+                return Err(ModelError::new(
+                    "parameter internal = true: an internal pair needs standard gear data (geometry = 2); the paper geometry is the article's external pair".into(),
+                ))
+            }
+            (2, false) => Self::standard(p, e_star)?,
+            (2, true) => Self::ring(p, e_star)?,
+            (other, _) => {
                 return Err(ModelError::parameter(
                     "geometry",
                     other,
@@ -83,11 +109,26 @@ impl Geometry {
         g.z_b = z_b;
         g.d_a = d_a;
         g.d_b = d_b;
+        g.internal = p.internal;
+        g.kappa = if p.internal { -1.0 } else { 1.0 };
+        g.j_n = p.backlash;
+        g.d_nominal = g.d;
+        let d = axes.unwrap_or(g.d) + p.center_distance_error;
+        // At the nominal distance the front end's values stand: they are exact where the
+        // operating formulas would round (alpha_w from an arc cosine).
+        if d != g.d {
+            g.operate(d, p)?;
+        }
+        g.check_segment(p)?;
         g.eps = (g.s_b - g.s_a) / g.p_b;
         if g.eps < 1.0 - 1e-9 || g.eps > 2.0 + 1e-9 {
             return Err(ModelError::new(format!(
-                "contact ratio eps = (s_b - s_a)/p_b = ({} - {})/{} = {} must lie in [1, 2]",
-                g.s_b, g.s_a, g.p_b, g.eps
+                "contact ratio eps = (s_b - s_a)/p_b = ({} - {})/{} = {} must lie in [1, 2]{}",
+                g.s_b,
+                g.s_a,
+                g.p_b,
+                g.eps,
+                g.where_placed(p)
             )));
         }
         let needed = (g.eps - 1e-9).ceil() as usize;
@@ -106,39 +147,148 @@ impl Geometry {
             m => m as usize,
         };
         g.check_teeth(p)?;
+        if g.internal {
+            super::interference::check_tip_corners(&g).map_err(|e| {
+                ModelError::new(format!("{e} ({}){}", g.shape(p), g.where_placed(p)))
+            })?;
+        }
         Ok(g)
+    }
+
+    /// The operating geometry at centre distance d (planetary.md §2): d cos(alpha_w) is
+    /// rAb + rBb (external) or rBb - rAb (internal), whatever d is; the backlash follows from
+    /// the thickness closure at the new alpha_w.
+    fn operate(&mut self, d: f64, p: &Params) -> Result<(), ModelError> {
+        let base = self.r_bb + self.kappa * self.r_ab;
+        if !(d > base) {
+            return Err(ModelError::parameter(
+                "center_distance_error",
+                p.center_distance_error,
+                &format!(
+                    "puts the axes {d} m apart, not more than {base} m ({}): the gears cannot mesh there",
+                    if self.internal { "rBb - rAb" } else { "rAb + rBb" }
+                ),
+            ));
+        }
+        self.alpha_w = (base / d).acos();
+        self.d = d;
+        self.l = d * self.alpha_w.sin();
+        let tip_b = (self.r_tip_b * self.r_tip_b - self.r_bb * self.r_bb)
+            .max(0.0)
+            .sqrt();
+        self.s_a = if self.internal {
+            tip_b - self.l
+        } else {
+            self.l - tip_b
+        };
+        let closure = self.p_b - self.r_ab * self.t_a - self.r_bb * self.t_b;
+        self.j_n = closure + self.kappa * 2.0 * base * inv(self.alpha_w);
+        if !(self.j_n >= 0.0) {
+            return Err(ModelError::parameter(
+                "center_distance_error",
+                p.center_distance_error,
+                &format!(
+                    "jams the teeth: at the actual centre distance {d} m (nominal {} m) the backlash would be {} m < 0 (backlash {} m at the nominal distance)",
+                    self.d_nominal, self.j_n, p.backlash
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The contact segment lies where both flanks are involutes: external, on the line of
+    /// action [0, L]; internal, from K_A on (the ring's tangent point lies behind K_A).
+    fn check_segment(&self, p: &Params) -> Result<(), ModelError> {
+        let (s_a, s_b, l) = (self.s_a, self.s_b, self.l);
+        if self.internal && s_a < 0.0 {
+            return Err(ModelError::new(format!(
+                "involute interference at the pinion's root: the ring's tip circle (radius {} m) reaches past K_A, \
+                 the pinion's base-circle tangent point: s_a = sqrt(r_Ba^2 - rBb^2) - L = {s_a} m < 0; a positive xB \
+                 lifts the ring's tips and cures it ({}){}",
+                self.r_tip_b,
+                self.shape(p),
+                self.where_placed(p)
+            )));
+        }
+        if !self.internal && (s_a < 0.0 || s_b > l) {
+            return Err(ModelError::new(format!(
+                "interference: the contact segment [s_a, s_b] = [{s_a}, {s_b}] leaves the line of action [0, {l}] \
+                 (tip radii {}, {}; reduce addendum or change the profile shifts){}",
+                self.r_tip_a,
+                self.r_tip_b,
+                self.where_placed(p)
+            )));
+        }
+        Ok(())
+    }
+
+    /// The gear data, for messages.
+    fn shape(&self, p: &Params) -> String {
+        match p.geometry {
+            1 => format!(
+                "alpha_factor = {}, zA = {}, zB = {}, backlash = {}",
+                p.alpha_factor, p.zA, p.zB, p.backlash
+            ),
+            _ => format!(
+                "{}module = {}, zA = {}, zB = {}, xA = {}, xB = {}, addendum = {}, backlash = {}",
+                if p.internal { "internal, " } else { "" },
+                p.module,
+                p.zA,
+                p.zB,
+                p.xA,
+                p.xB,
+                p.addendum,
+                p.backlash
+            ),
+        }
+    }
+
+    /// Where the axes are, for messages when they are not at the nominal distance.
+    fn where_placed(&self, p: &Params) -> String {
+        if self.d == self.d_nominal {
+            String::new()
+        } else {
+            format!(
+                " at the actual centre distance {} m (nominal {} m, center_distance_error = {} m)",
+                self.d, self.d_nominal, p.center_distance_error
+            )
+        }
     }
 
     /// Teeth that cannot exist are rejected with their numbers: no thickness on the operating
     /// pitch circle (too much backlash), pointed tips, an active profile below where a rack
     /// cutter generates the involute (undercut). A tip thinner than 0.2 module is a warning.
     /// An involute tooth whose angular thickness on the base circle is t has the angular
-    /// thickness t - 2 inv(alpha_r) on the circle of radius r, cos(alpha_r) = r_b/r.
+    /// thickness t - 2 inv(alpha_r) on the circle of radius r, cos(alpha_r) = r_b/r; a ring's
+    /// tooth is the complement of an external tooth space, t + 2 inv(alpha_r).
     fn check_teeth(&mut self, p: &Params) -> Result<(), ModelError> {
-        let thickness = |t: f64, r_b: f64, r: f64| r * (t - 2.0 * inv((r_b / r).min(1.0).acos()));
-        let (shape, module) = match p.geometry {
-            1 => (
-                format!(
-                    "alpha_factor = {}, zA = {}, zB = {}, backlash = {}",
-                    p.alpha_factor, p.zA, p.zB, p.backlash
-                ),
-                // The operating module: the base pitch over pi cos(alpha_w).
-                self.p_b / (PI * self.alpha_w.cos()),
-            ),
-            _ => (
-                format!(
-                    "module = {}, zA = {}, zB = {}, xA = {}, xB = {}, addendum = {}, backlash = {}",
-                    p.module, p.zA, p.zB, p.xA, p.xB, p.addendum, p.backlash
-                ),
-                p.module,
-            ),
+        let thickness = |t: f64, r_b: f64, r: f64, ring: bool| {
+            let sign = if ring { 1.0 } else { -1.0 };
+            r * (t + sign * 2.0 * inv((r_b / r).min(1.0).acos()))
         };
-        for (wheel, t, r_b, r_tip, z, x) in [
-            ("A", self.t_a, self.r_ab, self.r_tip_a, p.zA, p.xA),
-            ("B", self.t_b, self.r_bb, self.r_tip_b, p.zB, p.xB),
+        let shape = self.shape(p);
+        let module = match p.geometry {
+            // The operating module: the base pitch over pi cos(alpha_w).
+            1 => self.p_b / (PI * self.alpha_w.cos()),
+            _ => p.module,
+        };
+        for (wheel, t, r_b, r_tip, z, x, ring) in [
+            ("A", self.t_a, self.r_ab, self.r_tip_a, p.zA, p.xA, false),
+            (
+                "B",
+                self.t_b,
+                self.r_bb,
+                self.r_tip_b,
+                p.zB,
+                p.xB,
+                self.internal,
+            ),
         ] {
+            // The operating pitch circle, or the tip circle where the tooth ends short of it
+            // (an internal pair at a large alpha_w can have its pitch point off the segment).
             let r_w = r_b / self.alpha_w.cos();
-            let pitch = thickness(t, r_b, r_w);
+            let r_w = if ring { r_w.max(r_tip) } else { r_w.min(r_tip) };
+            let pitch = thickness(t, r_b, r_w, ring);
             if !(pitch > 0.0) {
                 return Err(ModelError::parameter(
                     "backlash",
@@ -148,7 +298,7 @@ impl Geometry {
                     ),
                 ));
             }
-            let tip = thickness(t, r_b, r_tip);
+            let tip = thickness(t, r_b, r_tip, ring);
             if !(tip > 0.0) {
                 return Err(ModelError::new(format!(
                     "pointed teeth: wheel {wheel}'s tooth thickness on its tip circle (radius {r_tip} m) is {tip} m ({shape})"
@@ -160,7 +310,9 @@ impl Geometry {
                     0.2 * module
                 ));
             }
-            if p.geometry == 2 {
+            // A ring is cut by a pinion-type cutter, not a rack: its involute reaches down to
+            // the tip circle whatever the shift, so only external gears are checked here.
+            if p.geometry == 2 && !ring {
                 // ISO 53 profile A: the cutter's straight flank ends (1.25 - 0.38 (1 - sin a0))
                 // modules above the datum line, where the generated involute begins: at the roll
                 // distance r sin(a0) - (h - x) m / sin(a0) from the base circle's tangent point.
@@ -235,6 +387,14 @@ impl Geometry {
         })
     }
 
+    /// Base thickness angle of an external gear from its reference thickness
+    /// m (pi/2 + 2 x tan a0), minus its half of the backlash.
+    fn base_thickness(p: &Params, z: f64, x: f64, r_b: f64) -> f64 {
+        let (m, a0) = (p.module, p.pressure_angle);
+        m * (PI / 2.0 + 2.0 * x * a0.tan()) / (m * z / 2.0) + 2.0 * inv(a0)
+            - p.backlash / (2.0 * r_b)
+    }
+
     fn standard(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
         // Ranges: `validate` (the variable table).
         let (m, a0) = (p.module, p.pressure_angle);
@@ -253,17 +413,6 @@ impl Geometry {
         let r_tip_b = m * zb / 2.0 + m * (p.addendum + p.xB);
         let s_b = (r_tip_a * r_tip_a - r_ab * r_ab).max(0.0).sqrt();
         let s_a = l - (r_tip_b * r_tip_b - r_bb * r_bb).max(0.0).sqrt();
-        if s_a < 0.0 || s_b > l {
-            return Err(ModelError::new(format!(
-                "interference: the contact segment [s_a, s_b] = [{s_a}, {s_b}] leaves the line of action [0, {l}] \
-                 (tip radii {r_tip_a}, {r_tip_b}; reduce addendum or change the profile shifts)"
-            )));
-        }
-        // Base thickness angle from the reference thickness m(pi/2 + 2 x tan a0); backlash split evenly.
-        let t = |z: f64, x: f64, rb: f64| {
-            m * (PI / 2.0 + 2.0 * x * a0.tan()) / (m * z / 2.0) + 2.0 * inv(a0)
-                - p.backlash / (2.0 * rb)
-        };
         Ok(Geometry {
             alpha_w,
             r_ab,
@@ -273,8 +422,62 @@ impl Geometry {
             s_a,
             s_b,
             p_b: r_ab * 2.0 * PI / za,
-            t_a: t(za, p.xA, r_ab),
-            t_b: t(zb, p.xB, r_bb),
+            t_a: Self::base_thickness(p, za, p.xA, r_ab),
+            t_b: Self::base_thickness(p, zb, p.xB, r_bb),
+            r_tip_a,
+            r_tip_b,
+            e_star,
+            ..Geometry::empty()
+        })
+    }
+
+    /// A pinion A inside a ring B (planetary.md §1): O_B at (-d, 0) in the paper frame, the
+    /// ring's tips inwards, its tooth space on the reference circle m (pi/2 + 2 xB tan a0).
+    fn ring(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
+        let (m, a0) = (p.module, p.pressure_angle);
+        let (za, zb) = (p.zA as f64, p.zB as f64);
+        if p.zB <= p.zA {
+            return Err(ModelError::new(format!(
+                "internal pair: the ring needs more teeth than the pinion (zA = {}, zB = {})",
+                p.zA, p.zB
+            )));
+        }
+        let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xB - p.xA) / (zb - za);
+        let alpha_w = inv_inverse(inv_w).ok_or_else(|| {
+            ModelError::new(format!(
+                "internal pair: profile shifts xA = {}, xB = {} give inv(alpha_w) = {inv_w}: no operating pressure angle",
+                p.xA, p.xB
+            ))
+        })?;
+        let d = m * (zb - za) / 2.0 * a0.cos() / alpha_w.cos();
+        let (r_ab, r_bb) = (m * za * a0.cos() / 2.0, m * zb * a0.cos() / 2.0);
+        let l = d * alpha_w.sin();
+        let r_tip_a = m * za / 2.0 + m * (p.addendum + p.xA);
+        let r_tip_b = m * zb / 2.0 - m * (p.addendum - p.xB);
+        if !(r_tip_b > r_bb) {
+            return Err(ModelError::new(format!(
+                "internal pair: the ring's tip circle (radius r_Ba = {r_tip_b} m) is not outside its base circle \
+                 (rBb = {r_bb} m), where its involute flanks begin; raise xB or lower the addendum \
+                 (module = {m}, zB = {}, xB = {}, addendum = {})",
+                p.zB, p.xB, p.addendum
+            )));
+        }
+        let s_b = (r_tip_a * r_tip_a - r_ab * r_ab).max(0.0).sqrt();
+        let s_a = (r_tip_b * r_tip_b - r_bb * r_bb).sqrt() - l;
+        let e_b = (PI / 2.0 + 2.0 * p.xB * a0.tan()) * 2.0 / zb
+            + 2.0 * inv(a0)
+            + p.backlash / (2.0 * r_bb);
+        Ok(Geometry {
+            alpha_w,
+            r_ab,
+            r_bb,
+            d,
+            l,
+            s_a,
+            s_b,
+            p_b: r_ab * 2.0 * PI / za,
+            t_a: Self::base_thickness(p, za, p.xA, r_ab),
+            t_b: 2.0 * PI / zb - e_b,
             r_tip_a,
             r_tip_b,
             e_star,
@@ -286,10 +489,13 @@ impl Geometry {
         Geometry {
             z_a: 0.0,
             z_b: 0.0,
+            internal: false,
+            kappa: 1.0,
             alpha_w: 0.0,
             r_ab: 0.0,
             r_bb: 0.0,
             d: 0.0,
+            d_nominal: 0.0,
             l: 0.0,
             s_a: 0.0,
             s_b: 0.0,
@@ -300,11 +506,18 @@ impl Geometry {
             m_c: 0,
             t_a: 0.0,
             t_b: 0.0,
+            j_n: 0.0,
             r_tip_a: 0.0,
             r_tip_b: 0.0,
             e_star: 0.0,
             warnings: Vec::new(),
         }
+    }
+
+    /// B's contact coordinate s_B (from K_B) of a pair at s_A with penetration delta.
+    #[inline(always)]
+    pub fn s_b_of(&self, s_a: f64, delta: f64) -> f64 {
+        self.l + self.kappa * (delta - s_a)
     }
 
     /// Lower end of an object's window in s_A; the upper end is s_b (spec §3).
@@ -574,5 +787,227 @@ mod tests {
             let g = Geometry::new(&p).unwrap();
             assert!(g.warnings.is_empty(), "{:?}", g.warnings);
         }
+    }
+
+    fn internal(za: i32, zb: i32, xa: f64, xb: f64, module: f64) -> Params {
+        Params {
+            internal: true,
+            xA: xa,
+            xB: xb,
+            module,
+            ..standard(za, zb, 0.0, 0.0)
+        }
+    }
+
+    /// The ring front end's geometry before any check (as `at_distance` fills it in).
+    fn unchecked(p: &Params) -> Geometry {
+        let mut g = Geometry::ring(p, 1.0).unwrap();
+        g.z_a = p.zA as f64;
+        g.z_b = p.zB as f64;
+        g.d_a = 2.0 * PI / g.z_a;
+        g.d_b = 2.0 * PI / g.z_b;
+        g.internal = true;
+        g.kappa = -1.0;
+        g.j_n = p.backlash;
+        g.eps = (g.s_b - g.s_a) / g.p_b;
+        g
+    }
+
+    /// planetary.md §1: standard 20/60 at 20 deg, m = 2 mm, no shift: s_a = -0.075 mm (the
+    /// spec's two digits: +-0.0005 mm), refused; a positive xB cures it. xB = 0.3 lifts s_a to
+    /// 0.70 mm, still below where the rack-generated involute of the pinion begins (0.99 mm
+    /// from its tangent point); xB = 0.5 clears both.
+    #[test]
+    fn an_unshifted_20_60_ring_interferes_at_the_pinion_root() {
+        let p = internal(20, 60, 0.0, 0.0, 0.002);
+        let g = unchecked(&p);
+        assert!((g.s_a + 0.075e-3).abs() < 0.0005e-3, "{}", g.s_a);
+        let e = Geometry::new(&p).unwrap_err().message;
+        assert!(
+            e.contains("interference at the pinion's root") && e.contains("s_a"),
+            "{e}"
+        );
+        let g = Geometry::new(&internal(20, 60, 0.0, 0.5, 0.002)).unwrap();
+        assert!(g.s_a > 0.0 && g.eps > 1.0 && g.eps < 2.0, "{g:?}");
+    }
+
+    /// The ring's closure (planetary.md §1): rBb eB - rAb tA = 2 d cos(alpha_w) inv(alpha_w) + j_n
+    /// with eB = 2 pi/zB - tB, and rBb - rAb = d cos(alpha_w); a few roundings of numbers of
+    /// order 1e-2, hence 1e-15 absolute.
+    #[test]
+    fn ring_geometry_closes() {
+        for (za, zb, xa, xb) in [(20, 60, 0.0, 0.5), (18, 72, 0.0, 0.6), (31, 89, 0.1, 0.6)] {
+            let p = internal(za, zb, xa, xb, 0.003);
+            let g = Geometry::new(&p).unwrap();
+            let e_b = 2.0 * PI / g.z_b - g.t_b;
+            let lhs = g.r_bb * e_b - g.r_ab * g.t_a;
+            let rhs = 2.0 * g.d * g.alpha_w.cos() * inv(g.alpha_w) + p.backlash;
+            assert!((lhs - rhs).abs() < 1e-15, "{za}/{zb}: {lhs} vs {rhs}");
+            assert!((g.r_bb - g.r_ab - g.d * g.alpha_w.cos()).abs() < 1e-15);
+            assert!((g.l - g.d * g.alpha_w.sin()).abs() < 1e-15);
+            assert_eq!((g.kappa, g.j_n), (-1.0, p.backlash));
+        }
+    }
+
+    /// planetary.md §1: 36/38 with xB = 0.3 at m = 2.5 mm passes every other rule and
+    /// interferes "by about half a millimetre" (read as 0.3 to 0.7 mm).
+    #[test]
+    fn a_36_38_ring_has_tip_interference() {
+        let p = internal(36, 38, 0.0, 0.3, 0.0025);
+        let mut g = unchecked(&p);
+        assert!(g.s_a >= 0.0 && g.eps >= 1.0 && g.eps <= 2.0, "{g:?}");
+        assert!(g.check_teeth(&p).is_ok());
+        let c = crate::model::interference::smallest_clearance(&g);
+        assert!(c.clearance < -0.3e-3 && c.clearance > -0.7e-3, "{c:?}");
+        let e = Geometry::new(&p).unwrap_err().message;
+        assert!(
+            e.contains("tip or trochoid interference") && e.contains("zB = 38"),
+            "{e}"
+        );
+    }
+
+    /// planetary.md §1: at zero shifts the other rules already refuse every pair the tip
+    /// corners would (zB - zA below about 9 at 20 deg); the check finds no interference on the
+    /// pairs they accept, whose corners touch the ring only at the segment's end.
+    #[test]
+    fn at_zero_shift_the_other_rules_refuse_what_the_tip_corners_would() {
+        let mut interfering = 0;
+        for za in [12, 17, 20, 25, 30, 40] {
+            for diff in 1..=30 {
+                let p = internal(za, za + diff, 0.0, 0.0, 0.002);
+                if Geometry::ring(&p, 1.0).is_err() {
+                    continue; // the ring's tips inside its base circle: refused by a rule
+                }
+                let mut g = unchecked(&p);
+                let others = !(g.r_tip_b > g.r_bb)
+                    || g.s_a < 0.0
+                    || g.eps < 1.0
+                    || g.eps > 2.0
+                    || g.check_teeth(&p).is_err();
+                let c = crate::model::interference::smallest_clearance(&g);
+                if c.clearance < -1e-10 * g.r_tip_b {
+                    interfering += 1;
+                    assert!(others, "{za}/{}: {c:?} and no other rule", za + diff);
+                }
+                if diff < 8 {
+                    assert!(others, "{za}/{} passes the rules", za + diff);
+                }
+            }
+        }
+        assert!(interfering > 0, "some small differences interfere");
+    }
+
+    /// planetary.md §2: moving the axes apart by e opens an external pair's backlash by
+    /// 2 e sin(alpha_w) and closes an internal pair's by as much, to first order; the central
+    /// difference of +-e cancels the second-order term, leaving O((e/d)^2) ~ 1e-7 relative.
+    #[test]
+    fn moving_the_axes_apart_opens_external_and_closes_internal_backlash() {
+        let e = 40e-6;
+        for p in [
+            standard(20, 40, 0.0, 0.0),
+            internal(20, 60, 0.0, 0.5, 0.004),
+        ] {
+            let g0 = Geometry::new(&p).unwrap();
+            let at = |err: f64| {
+                Geometry::new(&Params {
+                    center_distance_error: err,
+                    ..p.clone()
+                })
+                .unwrap()
+            };
+            let (gp, gm) = (at(e), at(-e));
+            assert_eq!((gp.d - g0.d - e).abs() < 1e-15, true);
+            let slope = (gp.j_n - gm.j_n) / (2.0 * e);
+            let expected = 2.0 * g0.kappa * g0.alpha_w.sin();
+            assert!(
+                (slope / expected - 1.0).abs() < 1e-5,
+                "{slope} vs {expected}"
+            );
+            // The gears stay: base radii, tip radii, thicknesses.
+            for g in [&gp, &gm] {
+                assert_eq!(
+                    (g.r_ab, g.r_bb, g.r_tip_a, g.r_tip_b, g.t_a, g.t_b, g.s_b),
+                    (g0.r_ab, g0.r_bb, g0.r_tip_a, g0.r_tip_b, g0.t_a, g0.t_b, g0.s_b)
+                );
+                let base = g.r_bb + g.kappa * g.r_ab;
+                assert!((g.d * g.alpha_w.cos() - base).abs() < 1e-15);
+            }
+        }
+    }
+
+    /// With no error, the operating geometry is the front end's, bit for bit, and the
+    /// backlash is the parameter.
+    #[test]
+    fn no_error_keeps_the_nominal_geometry() {
+        for p in [Params::default(), standard(20, 40, 0.2, -0.1)] {
+            let g = Geometry::new(&p).unwrap();
+            assert_eq!((g.d, g.j_n, g.kappa), (g.d_nominal, p.backlash, 1.0));
+            let g2 = Geometry::at_distance(&p, Some(g.d)).unwrap();
+            assert_eq!(g, g2);
+        }
+    }
+
+    /// A centre distance error that jams the teeth or drops the contact ratio below 1 is
+    /// refused with the numbers; the closure holds at the actual distance.
+    #[test]
+    fn a_bad_centre_distance_is_refused() {
+        let p = standard(20, 40, 0.0, 0.0);
+        let g = Geometry::new(&p).unwrap();
+        let jam = -1.5 * p.backlash / (2.0 * g.alpha_w.sin());
+        let e = Geometry::new(&Params {
+            center_distance_error: jam,
+            ..p.clone()
+        })
+        .unwrap_err()
+        .message;
+        assert!(
+            e.contains("center_distance_error") && e.contains("jams"),
+            "{e}"
+        );
+        let e = Geometry::new(&Params {
+            center_distance_error: 0.003,
+            ..p.clone()
+        })
+        .unwrap_err()
+        .message;
+        assert!(
+            e.contains("contact ratio") && e.contains("actual centre distance"),
+            "{e}"
+        );
+        let ring = internal(20, 60, 0.0, 0.5, 0.004);
+        let gr = Geometry::new(&ring).unwrap();
+        let e = Geometry::new(&Params {
+            center_distance_error: 1.5 * ring.backlash / (2.0 * gr.alpha_w.sin()),
+            ..ring
+        })
+        .unwrap_err()
+        .message;
+        assert!(e.contains("jams"), "{e}");
+        let g = Geometry::new(&Params {
+            center_distance_error: 50e-6,
+            ..p.clone()
+        })
+        .unwrap();
+        let lhs = g.r_ab * g.t_a + g.r_bb * g.t_b;
+        let rhs = g.p_b + 2.0 * g.d * g.alpha_w.cos() * inv(g.alpha_w) - g.j_n;
+        assert!((lhs - rhs).abs() < 1e-15, "{lhs} vs {rhs}");
+    }
+
+    #[test]
+    fn internal_needs_standard_geometry() {
+        let e = Geometry::new(&Params {
+            internal: true,
+            ..Params::default()
+        })
+        .unwrap_err()
+        .message;
+        assert!(
+            e.contains("internal = true") && e.contains("geometry = 2"),
+            "{e}"
+        );
+        let e = Geometry::new(&internal(20, 20, 0.0, 0.3, 0.002))
+            .unwrap_err()
+            .message;
+        assert!(e.contains("more teeth"), "{e}");
     }
 }

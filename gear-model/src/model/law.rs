@@ -11,12 +11,14 @@ use std::sync::Arc;
 
 pub const JOHNSON_LIMIT: &str = "the Johnson law's limit 4(rho_A+rho_B)/e^2";
 
-/// Johnson's line contact (paper eq. 5.1) with R = L + delta: independent of the position.
-/// `F = pi b E* delta v(x)`, `x = e delta/(4R)`, with v from the table of W_-1
-/// (`lower_branch::v`).
+/// Johnson's line contact (paper eq. 5.1) with R = rho_A + kappa rho_B = L + kappa delta:
+/// independent of the position (kappa = -1 for a convex flank in a ring's concave one,
+/// planetary.md §1). `F = pi b E* delta v(x)`, `x = e delta/(4R)`, with v from the table of
+/// W_-1 (`lower_branch::v`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JohnsonLaw {
     l: f64,
+    kappa: f64,
     e_star: f64,
     width: f64,
     /// pi E* b, derived from the three above: they are private so that it cannot go stale.
@@ -24,9 +26,11 @@ pub struct JohnsonLaw {
 }
 
 impl JohnsonLaw {
-    pub fn new(l: f64, e_star: f64, width: f64) -> JohnsonLaw {
+    /// The law of an external pair (kappa = 1) or an internal one (kappa = -1).
+    pub fn new(l: f64, kappa: f64, e_star: f64, width: f64) -> JohnsonLaw {
         JohnsonLaw {
             l,
+            kappa,
             e_star,
             width,
             p: std::f64::consts::PI * e_star * width,
@@ -39,7 +43,7 @@ impl ContactLaw for JohnsonLaw {
     #[inline(always)]
     fn force(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
         let d = delta.abs();
-        let r = self.l + delta;
+        let r = self.l + self.kappa * delta;
         let x = std::f64::consts::E * d / (4.0 * r);
         if x == 0.0 {
             return Ok(0.0);
@@ -66,7 +70,7 @@ impl ContactLaw for JohnsonLaw {
     /// pi E* b / (-1 - ln y), y = e N/(4 pi E* R) (`johnson::stiffness`).
     fn stiffness_at_force(&self, force: f64, delta: f64, _s_a: f64) -> f64 {
         use std::f64::consts::{E, PI};
-        let y = E * (force / self.width) / (4.0 * PI * self.e_star * (self.l + delta));
+        let y = E * (force / self.width) / (4.0 * PI * self.e_star * (self.l + self.kappa * delta));
         if y > 0.0 {
             self.width * PI * self.e_star / (-1.0 - y.ln())
         } else {
@@ -74,7 +78,7 @@ impl ContactLaw for JohnsonLaw {
         }
     }
     fn energy(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
-        Ok(self.width * johnson::energy(delta, self.l + delta, self.e_star)?)
+        Ok(self.width * johnson::energy(delta, self.l + self.kappa * delta, self.e_star)?)
     }
     fn energy_slope(&self, _force: f64, _s_a: f64) -> f64 {
         0.0
@@ -172,7 +176,7 @@ mod tests {
     #[test]
     fn johnson_through_the_table_matches_the_closed_form() {
         let (l, e_star, width) = (0.1714599985155, 115384615384.615, 0.02);
-        let law = JohnsonLaw::new(l, e_star, width);
+        let law = JohnsonLaw::new(l, 1.0, e_star, width);
         // With R = L + delta the range ends where delta = 4(L + delta)/e^2.
         let e2 = std::f64::consts::E * std::f64::consts::E;
         let limit = 4.0 * l / (e2 - 4.0);

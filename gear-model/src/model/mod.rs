@@ -9,6 +9,7 @@ pub mod contact;
 pub mod contact_law;
 pub mod deviations;
 pub mod geometry;
+pub mod interference;
 pub mod johnson;
 pub mod law;
 pub mod lower_branch;

@@ -160,7 +160,7 @@ mod tests {
             ..Params::default()
         };
         let g = Geometry::new(&p).unwrap();
-        let law = JohnsonLaw::new(g.l, g.e_star, p.width);
+        let law = JohnsonLaw::new(g.l, g.kappa, g.e_star, p.width);
         (g, law, 3e5 * p.width)
     }
 

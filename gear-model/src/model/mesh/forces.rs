@@ -260,7 +260,7 @@ impl GearMesh {
         let mut ft = 0.0;
         if self.coef.mu > 0.0 {
             let s_a = self.s_contact(k, y);
-            let s_b = g.l + delta - s_a;
+            let s_b = g.s_b_of(s_a, delta);
             let (mu_eff, v_s) = self.friction(s_a, s_b, y[W_A], w_b);
             ft = mu_eff * fn_;
             m.tq_a += ft * s_a;

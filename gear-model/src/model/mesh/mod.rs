@@ -174,8 +174,13 @@ impl GearMesh {
         let law = match p.contact_model {
             2 => ContactModel::Rigid {
                 restitution: p.restitution,
-                two_sided: p.backlash == 0.0 && !slider && p.backward_contacts,
+                two_sided: geo.j_n == 0.0 && !slider && p.backward_contacts,
             },
+            3 if geo.internal => {
+                return Err(ModelError::new(
+                    "parameter contact_model = 3: the tooth structure is not available for an internal pair yet (the ring tooth's structure is not specified); use contact_model 1 or 2".into(),
+                ))
+            }
             3 => {
                 if p.geometry != 2 {
                     return Err(ModelError::new(format!(
@@ -187,7 +192,7 @@ impl GearMesh {
                 geo.warnings.extend(law.warnings(&geo));
                 ContactModel::Compliant(Law::Structure(Arc::new(law)))
             }
-            _ => ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.e_star, p.width))),
+            _ => ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.kappa, geo.e_star, p.width))),
         };
         let dev = Deviations::from_params(p, &geo)?.map(Arc::new);
         if dev.is_some() && p.contact_model == 2 {
@@ -242,7 +247,7 @@ impl GearMesh {
         let (sin_a, cos_a) = geo.alpha_w.sin_cos();
         let mut mesh = GearMesh {
             cfg: Arc::new(MeshConfig {
-                backlash: p.backlash,
+                backlash: geo.j_n,
                 sin_a,
                 cos_a,
                 law,
@@ -332,7 +337,8 @@ impl GearMesh {
     }
 
     /// Penetration of a flank and its rate: forward delta = dte - x_S sin(alpha_w), backward
-    /// delta = -backlash - dte - x_S sin(alpha_w) (moving B away opens both flanks).
+    /// delta = -backlash - dte - x_S sin(alpha_w) (moving B away opens both flanks), with the
+    /// backlash at the actual centre distance.
     #[inline(always)]
     pub fn flank_delta(&self, f: Flank, y: &Kin) -> (f64, f64) {
         let ddte = y[DDTE];

@@ -203,11 +203,18 @@ impl PaperRig {
         // Geometry errors first, then the rig's own.
         let probe = super::geometry::Geometry::new(p)?;
         let slider = Slider::from_params(p)?;
-        if p.contact_model == 2 && !(p.dte_start >= -p.backlash && p.dte_start <= 0.0) {
+        if p.contact_model == 2 && !(p.dte_start >= -probe.j_n && p.dte_start <= 0.0) {
             return Err(ModelError::new(format!(
-                "parameter dte_start = {} m: with rigid contact (contact_model = 2) it must lie in [-backlash, 0] = [{}, 0]",
-                p.dte_start, 0.0 - p.backlash
+                "parameter dte_start = {} m: with rigid contact (contact_model = 2) it must lie in [-backlash_actual, 0] = [{}, 0]",
+                p.dte_start, 0.0 - probe.j_n
             )));
+        }
+        if probe.internal && slider.is_some() {
+            return Err(ModelError::parameter(
+                "slider_stiffness",
+                p.slider_stiffness,
+                "the slider S is not available for an internal pair (it is the paper rig's external pair's bearing, rig-and-modes.md section 1); set it to 0",
+            ));
         }
         let theta_a = p.dte_start / probe.r_ab;
         let mesh = GearMesh::new(p, Placement::Paper { theta_a }, slider.is_some())?;
@@ -334,8 +341,10 @@ impl PaperRig {
     ) -> (f64, f64, f64) {
         let c = &*self.cfg;
         let dw_a = (external * l.tau_a + m.tq_a) / c.j_a + external * l.alpha_housing;
-        let acc_b =
-            (external * (l.tau_b - l.c_load * w_b) + m.tq_b) / c.j_b - external * l.alpha_housing;
+        // The wheels turn relative to the housing: its angular acceleration enters each with
+        // the wheel's sense (B turns against A on an external pair, with it in a ring).
+        let acc_b = (external * (l.tau_b - l.c_load * w_b) + m.tq_b) / c.j_b
+            - self.geo.kappa * external * l.alpha_housing;
         let acc_x = match c.slider {
             Some(s) => {
                 (m.f_bx - external * (s.k * y[X_S] + s.c * y[V_S])) / s.m - external * l.a_housing_x
@@ -363,7 +372,7 @@ impl PaperRig {
             dy[DDTE] = f.dir() * self.sin_a * acc_x;
         }
         dy[W_EXT] = l.tau_a * w_a + l.tau_b * w_b - l.c_load * w_b * w_b
-            + l.alpha_housing * (c.j_a * w_a - c.j_b * w_b);
+            + l.alpha_housing * (c.j_a * w_a - g.kappa * c.j_b * w_b);
         if load.p_param != 0.0 {
             dy[W_EXT] += load.p_param;
         }

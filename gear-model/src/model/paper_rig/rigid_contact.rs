@@ -31,7 +31,7 @@ impl PaperRig {
             let (w_a, w_b) = (y[W_A], self.w_b(y));
             for k in slots.filter(|&k| self.gated(k)) {
                 let s_a = self.s_contact(k, y);
-                let s_b = g.l - s_a;
+                let s_b = g.s_b_of(s_a, 0.0);
                 let (mu_eff, v_s) = self.mesh.friction(s_a, s_b, w_a, w_b);
                 let ft = mu_eff * share;
                 m.tq_a += ft * s_a;
@@ -56,7 +56,7 @@ impl PaperRig {
         let l = &self.loads_at(y);
         let w_b = (g.r_ab * y[W_A] - y[DDTE]) * c.inv_r_bb;
         let dw_a = l.tau_a * c.inv_j_a + l.alpha_housing;
-        let acc_b = (l.tau_b - l.c_load * w_b) * c.inv_j_b - l.alpha_housing;
+        let acc_b = (l.tau_b - l.c_load * w_b) * c.inv_j_b - g.kappa * l.alpha_housing;
         let inv_m = c.slider.map_or(0.0, |s| 1.0 / s.m);
         let acc_x = c.slider.map_or(0.0, |s| {
             -(s.k * y[X_S] + s.c * y[V_S]) * inv_m - l.a_housing_x
@@ -96,7 +96,11 @@ impl PaperRig {
                 let mut ft = 0.0;
                 if self.mesh.coef.mu > 0.0 {
                     let s_a = self.s_contact(k, y);
-                    ft = self.mesh.friction(s_a, self.geo.l - s_a, w_a, w_b).0 * fn_;
+                    ft = self
+                        .mesh
+                        .friction(s_a, self.geo.s_b_of(s_a, 0.0), w_a, w_b)
+                        .0
+                        * fn_;
                 }
                 pairs[k] = (fn_, ft, fn_);
             }
