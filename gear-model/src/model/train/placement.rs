@@ -59,29 +59,24 @@ pub fn place(spec: &TrainSpec, tree: &Tree, geo: &[Geometry]) -> Start {
                 let mp = &spec.meshes[m];
                 let g = &geo[m];
                 let s = frame_sign(tree.sense[mp.a]);
-                let beta = mp.center_angle;
+                let beta = frame_angle(g, mp.center_angle);
                 let dte = mp.params.dte_start;
-                // Forward: delta = rAb (alpha_w - chi_A + tA/2) + rBb (alpha_w + pi - chi_B
-                // + tB/2) - L + (n_A - n_B) p_b for A's tooth n_A against B's n_B.
-                let fixed = g.r_ab * (g.alpha_w + 0.5 * g.t_a)
-                    + g.r_bb * (g.alpha_w + PI + 0.5 * g.t_b)
-                    - g.l
-                    - dte;
+                // The forward delta of A's tooth n_A against B's n_B is
+                // C(chi_A, chi_B) + (n_A - n_B) p_b, linear in both axis angles: dC/dchi_A =
+                // -rAb, dC/dchi_B = -kappa rBb. Solve C = dte for the gear being placed.
                 if step.from == mp.a {
                     let chi_a = s * (psi[mp.a] - beta) + s * mp.mount_a;
-                    // r_bb chi_B = fixed - r_ab chi_A + q p_b, q = n_A - n_B.
-                    let x = (fixed - g.r_ab * chi_a) / g.r_bb;
+                    let x = (dte - forward_offset(g, chi_a, 0.0)) / (-g.kappa * g.r_bb);
                     psi[mp.b] = nearest(x, g.d_b, s, beta, mp.mount_b);
                 } else {
                     let chi_b = s * (psi[mp.b] - beta) + s * mp.mount_b;
-                    let x = (fixed - g.r_bb * chi_b) / g.r_ab;
+                    let x = (dte - forward_offset(g, 0.0, chi_b)) / (-g.r_ab);
                     psi[mp.a] = nearest(x, g.d_a, s, beta, mp.mount_a);
                 }
                 meshes[m] = pairing(
                     g,
-                    mp.params.backlash,
                     s,
-                    beta,
+                    mp.center_angle,
                     mp.mount_a,
                     mp.mount_b,
                     psi[mp.a],
@@ -94,31 +89,58 @@ pub fn place(spec: &TrainSpec, tree: &Tree, geo: &[Geometry]) -> Start {
     Start { psi, meshes }
 }
 
+/// The mesh frame's rotation: the direction of O_A -> O_B for an external pair; for an
+/// internal one the frame puts O_B at (-d, 0), so it is turned half a revolution more
+/// (planetary.md §3).
+fn frame_angle(g: &Geometry, center_angle: f64) -> f64 {
+    if g.internal {
+        center_angle + PI
+    } else {
+        center_angle
+    }
+}
+
+/// The forward penetration of A's tooth 0 against B's tooth 0 with their axes at chi_A,
+/// chi_B in the mesh frame (gear-train.md §3; planetary.md §1 for a ring, whose tooth n has
+/// its forward root at chi_B - n dB + tB/2 and s_B = rBb (alpha_w - phiB)).
+fn forward_offset(g: &Geometry, chi_a: f64, chi_b: f64) -> f64 {
+    let s_a = g.r_ab * (g.alpha_w - chi_a + 0.5 * g.t_a);
+    if g.internal {
+        s_a - g.r_bb * (g.alpha_w - chi_b - 0.5 * g.t_b) + g.l
+    } else {
+        s_a + g.r_bb * (g.alpha_w + PI - chi_b + 0.5 * g.t_b) - g.l
+    }
+}
+
+/// The same for the backward flank, whose delta is this plus (n_B - n_A) p_b.
+fn backward_offset(g: &Geometry, chi_a: f64, chi_b: f64) -> f64 {
+    let s_a = g.r_ab * (g.alpha_w + chi_a + 0.5 * g.t_a);
+    if g.internal {
+        s_a - g.r_bb * (g.alpha_w + chi_b - 0.5 * g.t_b) + g.l
+    } else {
+        s_a + g.r_bb * (g.alpha_w - PI + chi_b + 0.5 * g.t_b) - g.l
+    }
+}
+
 /// The teeth that meet, from both gears' start angles: forward, delta = C + (n_A - n_B) p_b
-/// must be dte_start; backward, delta_b = C_b + (n_B - n_A) p_b must be -backlash - dte_start
-/// (the thickness closure of gear-mesh-model.md §2 makes both hold at once).
+/// must be dte_start; backward, delta_b = C_b + (n_B - n_A) p_b must be -j_n - dte_start
+/// (the thickness closure at the actual centre distance makes both hold at once).
 #[allow(clippy::too_many_arguments)]
 pub fn pairing(
     g: &Geometry,
-    backlash: f64,
     s: f64,
-    beta: f64,
+    center_angle: f64,
     mount_a: f64,
     mount_b: f64,
     psi_a: f64,
     psi_b: f64,
     dte: f64,
 ) -> Placement {
+    let beta = frame_angle(g, center_angle);
     let chi_a = s * (psi_a - beta) + s * mount_a;
     let chi_b = s * (psi_b - beta) + s * mount_b;
-    let c_fwd = g.r_ab * (g.alpha_w - chi_a + 0.5 * g.t_a)
-        + g.r_bb * (g.alpha_w + PI - chi_b + 0.5 * g.t_b)
-        - g.l;
-    let q = ((dte - c_fwd) / g.p_b).round() as i64;
-    let c_bwd = g.r_ab * (g.alpha_w + chi_a + 0.5 * g.t_a)
-        + g.r_bb * (g.alpha_w - PI + chi_b + 0.5 * g.t_b)
-        - g.l;
-    let q_b = ((-backlash - dte - c_bwd) / g.p_b).round() as i64;
+    let q = ((dte - forward_offset(g, chi_a, chi_b)) / g.p_b).round() as i64;
+    let q_b = ((-g.j_n - dte - backward_offset(g, chi_a, chi_b)) / g.p_b).round() as i64;
     Placement::Teeth {
         chi_a,
         b_fwd: -q,

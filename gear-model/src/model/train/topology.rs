@@ -213,7 +213,8 @@ impl TrainSpec {
                 n - 1
             ));
         }
-        // Breadth first from body 1: across a mesh the sense flips, across a shaft it stays.
+        // Breadth first from body 1: across an external mesh the sense flips, across an
+        // internal mesh (a pinion in a ring) or a shaft it stays.
         let mut sense = vec![0.0; n];
         sense[0] = -1.0;
         let mut steps = Vec::with_capacity(n - 1);
@@ -228,6 +229,7 @@ impl TrainSpec {
                 };
                 sense[to] = match e {
                     Edge::Shaft(_) => sense[i],
+                    Edge::Mesh(m) if self.meshes[m].params.internal => sense[i],
                     Edge::Mesh(_) => -sense[i],
                 };
                 steps.push(Step {
