@@ -3,11 +3,13 @@
 use spur_gear_mesh::model::geometry::Geometry;
 use std::f64::consts::PI;
 
-/// Static penetration for a force per unit width N: eq. 5.1 with R = L + delta (fixed point in R).
+/// Static penetration for a force per unit width N: eq. 5.1 with R = L + delta (fixed point in
+/// R), or R = L - delta for a convex flank in a ring's concave one (planetary.md §1).
 pub fn static_delta(n: f64, g: &Geometry) -> f64 {
+    let sign = if g.internal { -1.0 } else { 1.0 };
     let mut delta = 0.0;
     for _ in 0..50 {
-        let r = g.l + delta;
+        let r = g.l + sign * delta;
         delta = n / (PI * g.e_star) * ((4.0 * PI * g.e_star * r / n).ln() - 1.0);
     }
     delta
