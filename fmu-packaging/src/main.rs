@@ -121,7 +121,36 @@ fn documentation(t: &Table) -> String {
          implicit solver (<code>solver = 2</code>).</p>\n",
     );
     h.push_str("<p>Source: I. I. Kosenko, I. K. Gusev, <i>Computer model of the spur involute gear mesh dynamics in gearboxes</i>, Rus. J. Nonlin. Dyn. 8(4), 2012, 713-734.</p>\n");
-    h.push_str(&figure());
+    h.push_str(&figure(
+        &Geometry::new(&Params::default()).expect("the default parameters are valid"),
+        "Geometry (paper defaults)",
+    ));
+    h.push_str(
+        "<h2>An internal pair: a pinion in a ring</h2>\n<p><code>internal = true</code> (standard geometry, \
+         <code>geometry = 2</code>) makes wheel B a ring gear with internal teeth, as in internal gear pumps, hub \
+         reductions and planetary sets. Both wheels turn forward clockwise, so <code>w_B = w_A rAb/rBb</code> with \
+         both positive, and <code>dte</code> is still the forward penetration. The ring's flanks are concave: Johnson's \
+         law takes <code>rho_B - rho_A = L - delta</code> in place of <code>rho_A + rho_B</code>. A positive \
+         <code>xB</code> moves the ring's profile outwards, away from its axis (its tips move out by <code>xB m</code>). \
+         A standard 20/60 pair at 20 deg with no shift is refused: the ring's tip circle reaches past K<sub>A</sub>, into \
+         the pinion's root (<code>s_a</code> = -0.075 mm at m = 2 mm); <code>xB = 0.5</code> lifts the ring's tips so \
+         that the contact starts 1.19 mm up the pinion's involute. Initialization also refuses a ring whose tips lie \
+         on or inside its base circle, a contact ratio outside [1, 2], pointed teeth on either gear, and tip or \
+         trochoid interference, found by following the pinion's tip corners through the ring's teeth (the message \
+         gives the smallest clearance). <code>contact_model = 3</code> and the slider are not available for an \
+         internal pair yet.</p>\n\
+         <h2>The centre distance</h2>\n<p><code>center_distance_error</code> [m] puts the axes that much further apart \
+         than the nominal operating distance. The gears keep their base radii, tip radii and tooth thicknesses; \
+         <code>alpha_w</code>, the line of action, the contact segment and the backlash follow from the actual \
+         distance <code>center_distance</code> (calculated). Moving the axes apart opens an external pair's backlash \
+         and closes an internal pair's, by about <code>2 sin(alpha_w)</code> times the error; \
+         <code>backlash_actual</code> is the result. An error that jams the teeth or drops the contact ratio below 1 \
+         is refused with the numbers.</p>\n",
+    );
+    h.push_str(&figure(
+        &Geometry::new(&internal_example()).expect("the worked internal pair is valid"),
+        "Geometry of an internal pair (20/60, m = 2 mm, xB = 0.5)",
+    ));
     for (title, causality) in [
         ("Inputs", "input"),
         ("Outputs", "output"),
@@ -147,26 +176,94 @@ fn documentation(t: &Table) -> String {
     h
 }
 
-/// SVG of the paper geometry: base and tip circles, the line of action and the segment ab.
-fn figure() -> String {
-    let g = Geometry::new(&Params::default()).expect("the default parameters are valid");
+/// The README's worked internal pair: 20/60, module 2 mm, 20 deg, xB = 0.5.
+fn internal_example() -> Params {
+    Params {
+        geometry: 2,
+        internal: true,
+        module: 0.002,
+        zA: 20,
+        zB: 60,
+        xB: 0.5,
+        ..Params::default()
+    }
+}
+
+/// SVG of a pair's geometry in its paper frame (O_A at the origin, O_B at (d, 0) or, for a
+/// ring, (-d, 0)): base and tip circles, the line of action K_A K_B and the segment ab. A ring
+/// dwarfs its mesh zone, so an internal pair gets a second panel that zooms in on the line.
+fn figure(g: &Geometry, title: &str) -> String {
     let (cw, ch) = (760.0, 460.0);
-    let scale = 620.0 / (g.d + g.r_tip_a + g.r_tip_b);
-    let ox = 70.0 + g.r_tip_a * scale;
-    let oy = ch / 2.0;
-    let px = |x: f64| ox + x * scale;
-    let py = |y: f64| oy - y * scale;
+    let xb = g.kappa * g.d;
+    let mut svg = format!("<h2>{title}</h2>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{cw}\" height=\"{ch}\" viewBox=\"0 0 {cw} {ch}\">\n");
+    svg += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+    if g.internal {
+        // The whole pair (the pinion's tips reach past the ring's), then the line of action
+        // from K_B to past b.
+        let (left, right) = (xb - g.r_tip_b, g.r_tip_a.max(xb + g.r_tip_b));
+        svg += &panel(
+            g,
+            (10.0, 10.0, 360.0, 400.0),
+            (0.5 * (left + right), 0.0),
+            340.0 / (right - left),
+        );
+        let (ka, u) = line_of_action(g);
+        let far = g.s_b.max(g.r_ab * g.alpha_w.tan());
+        let mid = 0.5 * (far - g.l);
+        let centre = (ka.0 + mid * u.0, ka.1 + mid * u.1);
+        svg += &panel(g, (390.0, 10.0, 360.0, 400.0), centre, 330.0 / (far + g.l));
+    } else {
+        let (left, right) = (-g.r_tip_a, g.d + g.r_tip_b);
+        let scale = (620.0 / (right - left)).min(400.0 / (2.0 * g.r_tip_a.max(g.r_tip_b)));
+        svg += &panel(
+            g,
+            (0.0, 0.0, cw, ch - 30.0),
+            (0.5 * (left + right), 0.0),
+            scale,
+        );
+    }
+    svg += &format!(
+        "<text x=\"10\" y=\"{:.0}\" font-size=\"13\">solid: base circles (r_Ab = {:.4} m, r_Bb = {:.4} m); dashed: tip circles; \
+         black: line of action (L = {:.4} m);</text>\n<text x=\"10\" y=\"{:.0}\" font-size=\"13\">green: contact segment ab \
+         (contact ratio {:.2}); P: pitch point; alpha_w = {:.4} rad; centre distance {:.4} m</text>\n",
+        ch - 30.0,
+        g.r_ab,
+        g.r_bb,
+        g.l,
+        ch - 12.0,
+        g.eps,
+        g.alpha_w,
+        g.d
+    );
+    svg + "</svg>\n"
+}
+
+/// K_A = rAb (cos a, sin a) and the unit vector u = (sin a, -cos a) from K_A towards the pitch
+/// point; positions on the line are K_A + s u, and K_B is at s = L (external) or -L (ring).
+fn line_of_action(g: &Geometry) -> ((f64, f64), (f64, f64)) {
     let (c, s) = (g.alpha_w.cos(), g.alpha_w.sin());
-    // Paper frame: K_A = rAb (cos a, sin a), K_B = O_B - rBb (cos a, sin a); the line runs K_A -> K_B.
-    let ka = (g.r_ab * c, g.r_ab * s);
-    let kb = (g.d - g.r_bb * c, -g.r_bb * s);
-    let (ux, uy) = ((kb.0 - ka.0) / g.l, (kb.1 - ka.1) / g.l);
-    let at = |s_: f64| (ka.0 + s_ * ux, ka.1 + s_ * uy);
+    ((g.r_ab * c, g.r_ab * s), (s, -c))
+}
+
+/// One view of the pair: a nested SVG at (x, y, width, height) of the page, `centre` of the
+/// paper frame in its middle, `scale` pixels per metre (the nested SVG clips what lies outside).
+fn panel(
+    g: &Geometry,
+    (x, y, w, h): (f64, f64, f64, f64),
+    centre: (f64, f64),
+    scale: f64,
+) -> String {
+    let xb = g.kappa * g.d;
+    let px = |v: f64| 0.5 * w + (v - centre.0) * scale;
+    let py = |v: f64| 0.5 * h - (v - centre.1) * scale;
+    let (ka, u) = line_of_action(g);
+    let at = |s_: f64| (ka.0 + s_ * u.0, ka.1 + s_ * u.1);
+    let kb = at(g.kappa * g.l);
     let (a, b) = (at(g.s_a), at(g.s_b));
-    let circle = |x: f64, r: f64, style: &str| {
+    let circle = |cx: f64, r: f64, style: &str| {
         format!(
             "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"{:.1}\" {style}/>\n",
-            px(x),
+            px(cx),
             py(0.0),
             r * scale
         )
@@ -187,43 +284,47 @@ fn figure() -> String {
             py(p.1) + dy
         )
     };
-    let mut svg = format!("<h2>Geometry (paper defaults)</h2>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{cw}\" height=\"{ch}\" viewBox=\"0 0 {cw} {ch}\">\n");
-    svg += "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+    let mut svg = format!(
+        "<svg x=\"{x:.0}\" y=\"{y:.0}\" width=\"{w:.0}\" height=\"{h:.0}\">\n<rect width=\"100%\" height=\"100%\" fill=\"none\" stroke=\"#ddd\"/>\n"
+    );
     svg += &circle(0.0, g.r_ab, "fill=\"none\" stroke=\"#1f77b4\"");
     svg += &circle(
         0.0,
         g.r_tip_a,
         "fill=\"none\" stroke=\"#1f77b4\" stroke-dasharray=\"4 3\"",
     );
-    svg += &circle(g.d, g.r_bb, "fill=\"none\" stroke=\"#d62728\"");
+    svg += &circle(xb, g.r_bb, "fill=\"none\" stroke=\"#d62728\"");
     svg += &circle(
-        g.d,
+        xb,
         g.r_tip_b,
         "fill=\"none\" stroke=\"#d62728\" stroke-dasharray=\"4 3\"",
     );
-    svg += &line((0.0, 0.0), (g.d, 0.0), "stroke=\"#999\"");
-    svg += &line(ka, kb, "stroke=\"black\"");
+    svg += &line((0.0, 0.0), (xb, 0.0), "stroke=\"#999\"");
+    // A ring's line runs on past K_A to the pitch point and the segment's end.
+    let far = if g.internal {
+        at(g.s_b.max(g.r_ab * g.alpha_w.tan()) * 1.15)
+    } else {
+        ka
+    };
+    svg += &line(kb, far, "stroke=\"black\"");
     svg += &line(a, b, "stroke=\"#2ca02c\" stroke-width=\"5\"");
+    let p = at(g.r_ab * g.alpha_w.tan());
+    svg += &format!(
+        "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"3\" fill=\"black\"/>\n",
+        px(p.0),
+        py(p.1)
+    );
+    svg += &label(p, 6.0, -6.0, "P");
     svg += &label(
         (0.0, 0.0),
         -20.0,
         18.0,
         "O<tspan font-size=\"10\">A</tspan>",
     );
-    svg += &label((g.d, 0.0), 4.0, 18.0, "O<tspan font-size=\"10\">B</tspan>");
+    svg += &label((xb, 0.0), 4.0, 18.0, "O<tspan font-size=\"10\">B</tspan>");
     svg += &label(ka, -28.0, -4.0, "K<tspan font-size=\"10\">A</tspan>");
     svg += &label(kb, 6.0, 12.0, "K<tspan font-size=\"10\">B</tspan>");
     svg += &label(a, -14.0, -8.0, "a");
     svg += &label(b, 8.0, 4.0, "b");
-    svg += &format!(
-        "<text x=\"10\" y=\"{:.0}\" font-size=\"13\">solid: base circles (r_Ab = {:.4} m, r_Bb = {:.4} m); dashed: tip circles; \
-         black: line of action (L = {:.4} m); green: contact segment ab (contact ratio {:.2}); alpha_w = {:.4} rad</text>\n",
-        ch - 12.0,
-        g.r_ab,
-        g.r_bb,
-        g.l,
-        g.eps,
-        g.alpha_w
-    );
     svg + "</svg>\n"
 }
