@@ -221,8 +221,9 @@ enum Op {
     ExitInit(u8),
     Terminate(u8),
     Reset(u8),
-    /// Reset, the paper scene's parameters, setup (optional stop time), initialization.
-    PaperScene(u8, i32, Option<f64>),
+    /// Reset, the paper scene's parameters (with the ring pair on top when the flag is set:
+    /// an internal pair), setup (optional stop time), initialization.
+    PaperScene(u8, i32, Option<f64>, bool),
     SetReal(u8, Vec<(Vr, Real)>, bool),
     SetInteger(u8, Vec<(Vr, Int)>, bool),
     SetBoolean(u8, Vec<(Vr, i32)>, bool),
@@ -395,8 +396,9 @@ fn op() -> impl Strategy<Value = Op> {
         4 => s.clone().prop_map(Op::ExitInit),
         1 => s.clone().prop_map(Op::Terminate),
         2 => s.clone().prop_map(Op::Reset),
-        4 => (s.clone(), 1i32..=3, prop::option::of(prop_oneof![Just(0.01), Just(0.1), Just(1.0)]))
-            .prop_map(|(s, solver, stop)| Op::PaperScene(s, solver, stop)),
+        4 => (s.clone(), 1i32..=3, prop::option::of(prop_oneof![Just(0.01), Just(0.1), Just(1.0)]),
+              prop::bool::weighted(0.3))
+            .prop_map(|(s, solver, stop, ring)| Op::PaperScene(s, solver, stop, ring)),
         6 => (s.clone(), prop::collection::vec((vr(), real()), 0..4), prop::bool::weighted(0.05))
             .prop_map(|(s, v, n)| Op::SetReal(s, v, n)),
         2 => (s.clone(), prop::collection::vec((vr(), int()), 0..3), prop::bool::weighted(0.05))
@@ -1110,13 +1112,20 @@ impl Harness {
                 self.slots[i].as_mut().unwrap().m = Model::fresh();
                 ("fmi2Reset", st)
             }
-            Op::PaperScene(_, solver, stop) => {
+            Op::PaperScene(_, solver, stop, ring) => {
                 let f = &self.slots[i].as_ref().unwrap().fmu;
                 check!(f.reset() == Status::Ok, "fmi2Reset failed");
                 for &(n, x) in PAPER_SCENE {
                     check!(
                         f.set_real(n, x) == Status::Ok,
                         "set {n}: {:?}",
+                        f.log.take()
+                    );
+                }
+                if *ring {
+                    check!(
+                        f.set_ring_pair() == Status::Ok,
+                        "set the ring pair: {:?}",
                         f.log.take()
                     );
                 }
@@ -2155,7 +2164,7 @@ fn run_sequence(ops: &[Op]) -> R {
     // A last check of every live instance: it can still be reset and run.
     for s in 0..2 {
         if h.slots[s].is_some() {
-            h.run(&Op::PaperScene(s as u8, 1, None))?;
+            h.run(&Op::PaperScene(s as u8, 1, None, false))?;
             h.run(&Op::Steps(s as u8, 3))?;
         }
     }
@@ -2167,9 +2176,23 @@ fn corpus() -> Vec<(&'static str, Vec<Op>)> {
     use Op::*;
     vec![
         (
+            "an internal pair: run, state, step, restore, round trip through a blob",
+            vec![
+                PaperScene(0, 1, None, true),
+                Steps(0, 20),
+                GetState(0, StateArg::NullValue),
+                Steps(0, 5),
+                SetState(0, StateArg::Own(0)),
+                Serialize(0, StateArg::Own(0), Buf::Exact),
+                Deserialize(1, Blob::Valid(2), StateArg::NullValue),
+                SetState(1, StateArg::Own(0)),
+                Steps(1, 5),
+            ],
+        ),
+        (
             "run, state, step, restore, serialize, round trip through a blob",
             vec![
-                PaperScene(0, 1, None),
+                PaperScene(0, 1, None, false),
                 Steps(0, 20),
                 GetState(0, StateArg::NullValue),
                 Steps(0, 5),
@@ -2235,18 +2258,18 @@ fn corpus() -> Vec<(&'static str, Vec<Op>)> {
                 EnterInit(0),
                 SetReal(0, vec![(Vr::Raw(40), Real::Special(f64::NAN))], false),
                 Reset(0),
-                PaperScene(0, 2, Some(0.01)),
+                PaperScene(0, 2, Some(0.01), false),
                 DoStep(0, Cur::Exact, f64::INFINITY),
-                PaperScene(0, 2, Some(0.01)),
+                PaperScene(0, 2, Some(0.01), false),
                 DoStep(0, Cur::Exact, -1e-4),
-                PaperScene(0, 2, Some(0.01)),
+                PaperScene(0, 2, Some(0.01), false),
                 DoStep(0, Cur::Exact, 1.0),
-                PaperScene(0, 2, Some(0.01)),
+                PaperScene(0, 2, Some(0.01), false),
                 DoStep(0, Cur::Rel(1e-3), 1e-4),
-                PaperScene(0, 2, Some(0.01)),
+                PaperScene(0, 2, Some(0.01), false),
                 DoStep(0, Cur::Exact, 5e-324),
                 SetReal(0, vec![(Vr::Raw(6), Real::Plausible(0.5))], false),
-                PaperScene(0, 1, None),
+                PaperScene(0, 1, None, false),
                 SetDebugLogging(0, true, Cats::List(vec![Cat::Unknown("logAll".into())])),
                 Status(0, 0, 0, false),
             ],

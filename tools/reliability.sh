@@ -39,7 +39,9 @@ z.extract("binaries/linux64/SpurGearMesh.so", work)
 md = ET.fromstring(z.read("modelDescription.xml"))
 vr = {v.get("name"): int(v.get("valueReference")) for v in md.iter("ScalarVariable")}
 expected = dict(chi=21, c_load=24, w_A_start=27, w_B_start=28, tau_A=40, w_A=52, w_B=53, dte=54,
-                s_f1=66, s_f2=67, s_b1=68, s_b2=69, s_b=85, base_pitch=89)
+                s_f1=66, s_f2=67, s_b1=68, s_b2=69, s_b=85, base_pitch=89,
+                geometry=1, zA=4, zB=5, module=8, xB=11, width=13, J_A=18, J_B=19,
+                backlash=20, mu=22, internal=48)
 wrong = {k: (v, vr.get(k)) for k, v in expected.items() if vr.get(k) != v}
 if wrong:
     sys.exit(f"tests/c/fmi_memcheck.c: value references changed (expected, actual): {wrong}")

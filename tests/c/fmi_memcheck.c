@@ -34,7 +34,10 @@ enum {
     VR_CHI = 21, VR_C_LOAD = 24, VR_W_A_START = 27, VR_W_B_START = 28, VR_TAU_A = 40,
     VR_W_A = 52, VR_W_B = 53, VR_DTE = 54,
     VR_S_F1 = 66, VR_S_F2 = 67, VR_S_B1 = 68, VR_S_B2 = 69,
-    VR_S_B = 85, VR_BASE_PITCH = 89
+    VR_S_B = 85, VR_BASE_PITCH = 89,
+    /* The internal pair (planetary.md section 1). */
+    VR_GEOMETRY = 1, VR_ZA = 4, VR_ZB = 5, VR_MODULE = 8, VR_XB = 11, VR_WIDTH = 13, VR_J_A = 18,
+    VR_J_B = 19, VR_BACKLASH = 20, VR_MU = 22, VR_INTERNAL = 48
 };
 
 static int failures = 0;
@@ -138,6 +141,58 @@ static char *serialize(const struct api *f, fmi2Component c, fmi2FMUstate s, siz
 /* Model Exchange: explicit Euler (2 ms in steps of 1e-6 s, stable on the damped paper rig),
  * with event mode whenever an indicator changes sign, FMU states in continuous-time mode, and
  * bad sizes and values on a second instance. */
+/* A pinion in a ring (the README's worked pair, scenes/internal-damped.toml) with tooth counts
+ * zA/zB and profile shift xB; returns the status of fmi2ExitInitializationMode. */
+static fmi2Status init_ring(void *lib, const struct api *f, fmi2Component c, int za, int zb, fmi2Real xb) {
+    fmi2SetIntegerTYPE *set_int = (fmi2SetIntegerTYPE *)sym(lib, "fmi2SetInteger");
+    fmi2SetBooleanTYPE *set_bool = (fmi2SetBooleanTYPE *)sym(lib, "fmi2SetBoolean");
+    const fmi2ValueReference ivr[] = {VR_GEOMETRY, VR_ZA, VR_ZB}, bvr[] = {VR_INTERNAL};
+    const fmi2Integer iv[] = {2, za, zb};
+    const fmi2Boolean bv[] = {fmi2True};
+    const fmi2ValueReference vr[] = {VR_MODULE, VR_XB, VR_WIDTH, VR_J_A, VR_J_B, VR_BACKLASH, VR_MU,
+                                     VR_CHI, VR_TAU_A, VR_C_LOAD, VR_W_A_START, VR_W_B_START};
+    const fmi2Real v[] = {0.002, xb, 0.02, 5e-3, 0.5, 5e-5, 0.05, 20.0, 20.0, 3.0, 60.0, 20.0};
+    CHECK(set_int(c, ivr, 3, iv) == fmi2OK, "set the ring's integers");
+    CHECK(set_bool(c, bvr, 1, bv) == fmi2OK, "set internal");
+    CHECK(f->SetReal(c, vr, 12, v) == fmi2OK, "set the ring's reals");
+    CHECK(f->SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK, "setup");
+    CHECK(f->EnterInitializationMode(c) == fmi2OK, "enter initialization");
+    return f->ExitInitializationMode(c);
+}
+
+/* The internal pair: refused geometry (the error path), then a run whose contact coordinates stay
+ * in their windows, an FMU state taken and restored, and a reset back to the paper scene. */
+static void internal_pair(void *lib, const struct api *f, const fmi2CallbackFunctions *cb, const char *guid,
+                          long steps) {
+    fmi2Component c = f->Instantiate("ring", fmi2CoSimulation, guid, "", cb, fmi2False, fmi2True);
+    fmi2ValueReference geo_vr[] = {VR_S_B, VR_BASE_PITCH};
+    fmi2Real t = 0.0, h = 5e-5, y[N_OUT], geo[2];
+    fmi2FMUstate s = NULL;
+    long k;
+    CHECK(c != NULL, "instantiate the ring");
+    if (!c) return;
+    /* 36/38 with xB = 0.3: tip interference, refused at initialization. */
+    CHECK(init_ring(lib, f, c, 36, 38, 0.3) == fmi2Error, "tip interference is refused");
+    CHECK(f->Reset(c) == fmi2OK, "reset after the refusal");
+    CHECK(init_ring(lib, f, c, 20, 60, 0.5) == fmi2OK, "the ring pair initializes");
+    CHECK(f->GetReal(c, geo_vr, 2, geo) == fmi2OK, "s_b, base_pitch");
+    for (k = 0; k < steps; k++, t += h) {
+        unsigned i;
+        CHECK(f->DoStep(c, t, h, fmi2True) == fmi2OK, "ring step %ld at t = %g", k, t);
+        CHECK(f->GetReal(c, outputs, N_OUT, y) == fmi2OK, "ring outputs");
+        for (i = 0; i < N_OUT; i++) CHECK(isfinite(y[i]), "ring output %u is %g", outputs[i], y[i]);
+        for (i = 3; i < 7; i++)
+            CHECK(y[i] >= geo[0] - 2 * geo[1] - 1e-9 && y[i] <= geo[0] + 1e-9,
+                  "ring contact coordinate %u = %.17g outside its window at t = %g", outputs[i], y[i], t);
+        if (k == steps / 2) CHECK(f->GetFMUstate(c, &s) == fmi2OK && s, "ring state");
+    }
+    CHECK(f->SetFMUstate(c, s) == fmi2OK, "restore the ring state");
+    CHECK(f->FreeFMUstate(c, &s) == fmi2OK, "free the ring state");
+    CHECK(f->Reset(c) == fmi2OK, "reset the ring");
+    init_paper_scene(f, c);
+    f->FreeInstance(c);
+}
+
 static void model_exchange(const struct api *f, const fmi2CallbackFunctions *cb, const char *guid) {
     fmi2Component c = f->Instantiate("me", fmi2ModelExchange, guid, "", cb, fmi2False, fmi2False);
     fmi2Component bad = f->Instantiate("me-bad", fmi2ModelExchange, guid, "", cb, fmi2False, fmi2False);
@@ -437,6 +492,7 @@ int main(int argc, char **argv) {
     }
     f.FreeInstance(NULL);
 
+    internal_pair(lib, &f, &cb, argv[2], steps / 4);
     model_exchange(&f, &cb, argv[2]);
     fmi3(lib, argv[2]);
 

@@ -203,6 +203,22 @@ impl Fmu {
     pub fn set_integer(&self, name: &str, x: i32) -> Status {
         unsafe { fmi2SetInteger(self.c, &vr(name), 1, &x) }
     }
+    pub fn set_boolean(&self, name: &str, x: bool) -> Status {
+        let b: Boolean = x.into();
+        unsafe { fmi2SetBoolean(self.c, &vr(name), 1, &b) }
+    }
+    /// Sets the ring pair's parameters (`RING_PAIR`) on top of whatever else is set.
+    pub fn set_ring_pair(&self) -> Status {
+        let worst = |a: Status, b: Status| if b != Status::Ok { b } else { a };
+        let mut st = self.set_boolean("internal", true);
+        for &(n, x) in RING_PAIR_INTEGERS {
+            st = worst(st, self.set_integer(n, x));
+        }
+        for &(n, x) in RING_PAIR {
+            st = worst(st, self.set_real(n, x));
+        }
+        st
+    }
     pub fn get_reals(&self, vrs: &[u32]) -> (Status, Vec<f64>) {
         let mut out = vec![f64::NAN; vrs.len()];
         let s = unsafe { fmi2GetReal(self.c, vrs.as_ptr(), vrs.len(), out.as_mut_ptr()) };
@@ -329,6 +345,23 @@ pub const PAPER_SCENE: &[(&str, f64)] = &[
     ("w_A_start", 100.0),
     ("w_B_start", 100.0 / 1.5),
     ("chi", 10.0),
+];
+
+/// A pinion in a ring (the README's worked pair, scenes/internal-damped.toml): with
+/// `internal` true, these integers and reals on top of the paper scene's loads.
+pub const RING_PAIR_INTEGERS: &[(&str, i32)] = &[("geometry", 2), ("zA", 20), ("zB", 60)];
+pub const RING_PAIR: &[(&str, f64)] = &[
+    ("module", 0.002),
+    ("xB", 0.5),
+    ("width", 0.02),
+    ("J_A", 5e-3),
+    ("J_B", 0.5),
+    ("backlash", 5e-5),
+    ("mu", 0.05),
+    ("tau_A", 20.0),
+    ("c_load", 3.0),
+    ("w_A_start", 60.0),
+    ("w_B_start", 20.0),
 ];
 
 pub fn paper_scene(name: &str) -> Fmu {
