@@ -18,6 +18,28 @@ fn events(p: &Params, i: &Inputs, rtol: f64, t_end: f64, max_step: f64) -> Vec<(
     log
 }
 
+/// The pair of `base` as a pinion in a ring (planetary.md §1, the README's worked pair):
+/// the same events must be located on it.
+fn ring(base: Params) -> Params {
+    Params {
+        geometry: 2,
+        internal: true,
+        module: 0.002,
+        zA: 20,
+        zB: 60,
+        xB: 0.5,
+        width: 0.02,
+        J_A: 5e-3,
+        J_B: 0.5,
+        ..base
+    }
+}
+
+/// The paper's pair and the ring pair.
+fn pairs(base: Params) -> [Params; 2] {
+    [base.clone(), ring(base)]
+}
+
 fn first(log: &[(f64, String)], what: &str) -> Option<f64> {
     log.iter().find(|(_, w)| w.contains(what)).map(|(t, _)| *t)
 }
@@ -29,13 +51,15 @@ fn first(log: &[(f64, String)], what: &str) -> Option<f64> {
 #[test]
 fn a_graze_into_the_forward_flank_is_located() {
     for (solver, depth) in [1, 3].into_iter().flat_map(|s| [(s, 1e-7), (s, 1e-6)]) {
-        for rtol in [1e-6, 1e-3] {
-            let base = Params {
+        for (rtol, base) in [1e-6, 1e-3].into_iter().flat_map(|rtol| {
+            pairs(Params {
                 dte_start: -5e-5,
                 c_load: 0.0,
                 solver,
                 ..Params::default()
-            };
+            })
+            .map(|b| (rtol, b))
+        }) {
             let g = Geometry::new(&base).unwrap();
             let a = -g.r_ab / base.J_A;
             let v0 = (2.0 * a.abs() * (depth - base.dte_start)).sqrt();
@@ -68,14 +92,16 @@ fn a_graze_into_the_forward_flank_is_located() {
 #[test]
 fn a_grazed_pair_switch_is_located() {
     for (solver, depth) in [1, 3].into_iter().flat_map(|s| [(s, 1e-7), (s, 1e-6)]) {
-        for rtol in [1e-6, 1e-3] {
-            let x = 2e-4;
-            let base = Params {
+        let x = 2e-4;
+        for (rtol, base) in [1e-6, 1e-3].into_iter().flat_map(|rtol| {
+            pairs(Params {
                 backlash: 1e-3,
                 dte_start: -x,
                 solver,
                 ..Params::default()
-            };
+            })
+            .map(|b| (rtol, b))
+        }) {
             let g = Geometry::new(&base).unwrap();
             let alpha = -1.0 / base.J_A;
             let w0 = (2.0 * alpha.abs() * (x + depth) / g.r_ab).sqrt();
@@ -171,6 +197,29 @@ proptest! {
             dte_start: -dte_frac * backlash,
             ..Params::default()
         };
+        same_events_with_forced_small_steps(base, w_a, slip, tau_a)?;
+    }
+
+    /// The same on the ring pair (internal: both wheels forward the same way).
+    #[test]
+    fn ring_event_sequences_do_not_depend_on_the_step(
+        w_a in 1.0f64..60.0,
+        slip in -0.02f64..0.02,
+        tau_a in -20.0f64..20.0,
+        backlash in 1e-5f64..1e-4,
+        mu in 0.0f64..0.2,
+        dte_frac in 0.0f64..1.0,
+        solver in prop_oneof![Just(1), Just(3)],
+    ) {
+        let base = ring(Params {
+            solver,
+            chi: 20.0,
+            c_load: 0.5,
+            mu,
+            backlash,
+            dte_start: -dte_frac * backlash,
+            ..Params::default()
+        });
         same_events_with_forced_small_steps(base, w_a, slip, tau_a)?;
     }
 
