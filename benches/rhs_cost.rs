@@ -12,6 +12,10 @@
 //! train's own work (walking the tree for the bodies' angles and speeds, the torques on the
 //! bodies) comes on top of the meshes'.
 //!
+//! And an internal pair (planetary.md §1) against the external pair of the same gear data
+//! (issue 30, point 6: within 5 %): 20/60, module 2 mm, xB = 0.5, damped, with friction, at
+//! states over the double-contact zone, interleaved in the same process.
+//!
 //! Run: `cargo bench --bench rhs_cost`.
 
 use spur_gear_mesh::model::paper_rig::{DTE, THETA_A};
@@ -42,6 +46,46 @@ fn setup(contact_model: i32) -> (PaperRig, Vec<State>) {
     let p = Params {
         dte_start: delta,
         ..p
+    };
+    let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
+    let g = &mesh.geo;
+    let states = (0..64)
+        .map(|k| {
+            let mut y = y0;
+            y[THETA_A] += k as f64 / 64.0 * (g.s_b - g.s_a - g.p_b) / g.r_ab;
+            y[DTE] = delta;
+            y
+        })
+        .collect();
+    (mesh, states)
+}
+
+/// The README's ring pair (20/60, module 2 mm, xB = 0.5) as an internal pair, or as an external
+/// pair of the same gear data, at 64 positions over the double-contact zone at a loaded
+/// penetration: both do one law evaluation per flank and two pairs' friction.
+fn pair_setup(internal: bool, mu: f64, v_reg: f64) -> (PaperRig, Vec<State>) {
+    let delta = 1e-6;
+    let p = Params {
+        geometry: 2,
+        internal,
+        module: 0.002,
+        zA: 20,
+        zB: 60,
+        xB: 0.5,
+        width: 0.02,
+        J_A: 5e-3,
+        J_B: 0.5,
+        chi: 20.0,
+        mu,
+        v_reg,
+        w_A_start: 60.0,
+        w_B_start: 20.0,
+        dte_start: delta,
+        ..Params::default()
+    };
+    let i = Inputs {
+        tau_A: 20.0,
+        ..Inputs::default()
     };
     let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
     let g = &mesh.geo;
@@ -194,6 +238,33 @@ fn main() {
         median(tu),
         median(td)
     );
+    // Friction's tanh(v_s/v_reg) costs what its argument asks: above 22 it saturates (cheap),
+    // between about 0.55 and 22 it takes an exponential. An internal pair's flanks slide about
+    // half as fast (dv_s/ds_A = w_A (rAb/rBb - 1) against -w_A (1 + rAb/rBb)) and its pitch
+    // point lies in double contact here, so at the default v_reg more of its evaluations fall
+    // in the exponential's range: physics, not overhead. With v_reg = 10 m/s both pairs'
+    // arguments lie below 0.01, in the same branch: equal work.
+    for (mu, v_reg) in [(0.0, 0.01), (0.05, 0.01), (0.05, 10.0)] {
+        let (me, se) = pair_setup(false, mu, v_reg);
+        let (mi, si) = pair_setup(true, mu, v_reg);
+        let (mut te, mut ti, mut ratio) = (Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..41 {
+            let a = time(&me, &se, 2000);
+            let b = time(&mi, &si, 2000);
+            te.push(a);
+            ti.push(b);
+            ratio.push(b / a);
+        }
+        println!(
+            "PaperRig::rhs, 20/60 module 2 mm xB = 0.5, damped, mu = {mu}, v_reg = {v_reg} m/s, double contact, 41 interleaved repetitions: \
+             external {:.1} ns, internal {:.1} ns, internal / external {:.3} (median of per-pair ratios; min {:.3}, max {:.3})",
+            median(te),
+            median(ti),
+            median(ratio.clone()),
+            ratio.iter().cloned().fold(f64::INFINITY, f64::min),
+            ratio.iter().cloned().fold(0.0, f64::max)
+        );
+    }
     println!("Train::rhs, a chain of n damped paper meshes, against n x PaperRig::rhs (damped), 41 interleaved repetitions:");
     for n in [1, 2, 4, 6] {
         let (t, st) = train_setup(n);
