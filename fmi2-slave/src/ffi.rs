@@ -516,9 +516,52 @@ pub unsafe fn do_step<S: Slave>(c: Component, current: f64, h: f64) -> Status {
                 "currentCommunicationPoint = {current} does not match the FMU's time {t}"
             )));
         }
-        i.slave.do_step(current, h, &i.log)?;
-        Ok(Status::Ok)
+        let represented = represented_step(current, h)?;
+        let mut status = Status::Ok;
+        if (represented - h).abs() > COARSE_STEP * h && !i.coarse_step_reported {
+            i.coarse_step_reported = true;
+            status = Status::Warning;
+            let func = i.name("fmi2DoStep");
+            i.log.log_status(
+                status,
+                &format!(
+                    "{func}: the time resolves this step only coarsely: at t = {current:e} s, \
+                     h = {h:e} s advances by the interval the time represents, \
+                     (t + h) - t = {represented:e} s (reported once per instance)"
+                ),
+            );
+        }
+        i.slave.do_step(current, represented, &i.log)?;
+        Ok(status)
     })
+}
+
+/// How far the interval the time represents, (t + h) - t, may differ from h, relative to h,
+/// before the step counts as coarsely resolved (warned about once per instance).
+///
+/// The difference is the rounding of t + h alone, at most half an ulp of t + h:
+/// |((t + h) - t) - h| <= 2^-53 |t + h| (the subtraction is exact, Sterbenz, for 0 < h <= |t|).
+/// Relative to h that is 2^-53 (|t|/h + 1): it grows with |t|/h, the number of steps of this
+/// size since time zero, and does not depend on the model. 1e-9 is the relative rounding this
+/// layer already grants a master's communication point (the check against the FMU's time in
+/// `do_step`); the bound first reaches it at |t|/h ~ 9e6, so an ordinary run (a million steps
+/// of any size, or 100 s at 1e-5 s) is never warned about, while a master on epoch time
+/// (t ~ 1.7e9 s) stepping 1 ms is off by up to 1.2e-4 of its step and is.
+pub const COARSE_STEP: f64 = 1e-9;
+
+/// The interval a step of `h` from `t` actually covers in double precision, (t + h) - t;
+/// a step the time cannot resolve at all (t + h == t) is refused like h = 0.
+pub fn represented_step(t: f64, h: f64) -> Result<f64, Failure> {
+    let represented = (t + h) - t;
+    if !(represented > 0.0) {
+        let ulp = f64::from_bits(t.abs().to_bits() + 1) - t.abs();
+        return Err(error(format!(
+            "t + h == t in double precision (t = currentCommunicationPoint = {t:e} s, \
+             h = communicationStepSize = {h:e} s): the step is lost in the time's resolution \
+             (the doubles near t are {ulp:e} s apart)"
+        )));
+    }
+    Ok(represented)
 }
 
 /// A function of an optional capability the FMUs here do not have: fmi2Error with the reason.

@@ -128,6 +128,9 @@ pub struct Instance<S: Slave> {
     pub(crate) fmu_states: HashSet<usize>,
     /// The strings of the last fmi2GetString: the master may read them until its next call.
     pub(crate) strings: Vec<std::ffi::CString>,
+    /// A step the time resolves only coarsely has been reported (once per instance, until
+    /// fmi2Reset): `ffi::do_step`.
+    pub(crate) coarse_step_reported: bool,
 }
 
 /// Marks a live instance: a component pointer to anything else (or to a freed instance) is rejected.
@@ -144,6 +147,7 @@ impl<S: Slave> Instance<S> {
             slave: S::fresh(),
             fmu_states: HashSet::new(),
             strings: Vec::new(),
+            coarse_step_reported: false,
         }
     }
 
@@ -183,7 +187,7 @@ impl<S: Slave> Instance<S> {
 
     /// The function's name as the master called it (messages only, so off the hot path).
     #[cold]
-    fn name<'a>(&self, func: &'a str) -> std::borrow::Cow<'a, str> {
+    pub(crate) fn name<'a>(&self, func: &'a str) -> std::borrow::Cow<'a, str> {
         if self.fmi3 {
             fmi3_name(func)
         } else {
@@ -203,6 +207,7 @@ impl<S: Slave> Instance<S> {
     pub fn reset(&mut self) {
         self.state = FmiState::Instantiated;
         self.slave = S::fresh();
+        self.coarse_step_reported = false;
     }
 
     pub fn save(&mut self) -> Saved<S> {

@@ -122,8 +122,10 @@ pub trait Slave: Clone + 'static {
     }
 
     /// fmi2DoStep from `current` (checked to be the instance's time) over `h` (finite and
-    /// positive). A failure with status Discard means the step could not be completed and the
-    /// instance keeps its values at `current`.
+    /// positive). `h` is the interval the time represents, (current + h') - current for the
+    /// master's h' (`ffi::represented_step`), so `current + h` is the step's end exactly. A
+    /// failure with status Discard means the step could not be completed and the instance
+    /// keeps its values at `current`.
     fn do_step(&mut self, current: f64, h: f64, log: &Logger) -> Result<(), Failure>;
 
     /// The time of the last communication point (the start time before the first step).

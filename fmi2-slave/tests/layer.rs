@@ -349,3 +349,54 @@ fn guid_text() {
     assert_eq!(g, fmi2_slave::guid_from_hash(*b"table"));
     assert_ne!(g, fmi2_slave::guid_from_hash(*b"tablf"));
 }
+
+/// The time's resolution, checked by the layer for every model: a step with t + h == t is
+/// refused like h = 0; a step the time resolves coarsely advances by (t + h) - t, the model is
+/// handed that interval, and the log says so once per instance.
+#[test]
+fn steps_lost_in_the_time_or_resolved_coarsely() {
+    let init = |c: Component, start: f64| unsafe {
+        assert_eq!(fmi2SetupExperiment(c, 0, 0.0, start, 0, 0.0), Status::Ok);
+        assert_eq!(fmi2EnterInitializationMode(c), Status::Ok);
+        assert_eq!(fmi2SetReal(c, [1].as_ptr(), 1, [1.0].as_ptr()), Status::Ok);
+        assert_eq!(fmi2ExitInitializationMode(c), Status::Ok);
+    };
+    let c = instantiate("resolution", "{tank}", false);
+    unsafe {
+        init(c, 1e15);
+        assert_eq!(fmi2DoStep(c, 1e15, 1e-4, 1), Status::Error);
+        let m = messages("t + h == t");
+        assert_eq!(m.len(), 1);
+        assert_eq!(
+            m[0],
+            (
+                "logStatusError".into(),
+                "fmi2DoStep: t + h == t in double precision (t = currentCommunicationPoint = \
+                 1e15 s, h = communicationStepSize = 1e-4 s): the step is lost in the time's \
+                 resolution (the doubles near t are 1.25e-1 s apart)"
+                    .into()
+            )
+        );
+        assert_eq!(level(c), 0.0);
+        assert_eq!(fmi2Reset(c), Status::Ok);
+        init(c, 1e12);
+        let h = (1e12 + 1e-4) - 1e12;
+        assert_eq!(fmi2DoStep(c, 1e12, 1e-4, 1), Status::Warning);
+        assert_eq!(fmi2DoStep(c, 1e12 + h, 1e-4, 1), Status::Ok);
+        let m = messages("coarsely");
+        assert_eq!(m.len(), 1, "once per instance: {m:?}");
+        assert_eq!(m[0].0, "logStatusWarning");
+        assert!(m[0].1.contains("(t + h) - t = 1.220703125e-4 s"), "{m:?}");
+        assert_eq!(
+            level(c),
+            2.0 * h,
+            "the model integrates the represented interval"
+        );
+        assert_eq!(fmi2Reset(c), Status::Ok);
+        init(c, 0.0);
+        assert_eq!(fmi2DoStep(c, 0.0, 1e-4, 1), Status::Ok);
+        assert_eq!(level(c), 1e-4);
+        assert!(messages("coarsely").is_empty());
+        fmi2FreeInstance(c);
+    }
+}
