@@ -132,7 +132,7 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
             ));
         }
     }
-    let ramp = &s.ramp;
+    let ramp = &s.extra;
     if ramp
         .t0
         .iter()
@@ -205,7 +205,7 @@ mod tests {
     }
 
     fn running(solver: i32) -> Snapshot {
-        let mut s = Snapshot::fresh();
+        let mut s = Snapshot::default();
         s.params = Params {
             solver,
             w_A_start: 100.0,
@@ -234,7 +234,7 @@ mod tests {
             let done = FmiState::StepComplete;
             assert_eq!(decode(&encode(done, &s)).unwrap(), (done, s));
         }
-        let fresh = Snapshot::fresh();
+        let fresh = Snapshot::default();
         let inst = FmiState::Instantiated;
         assert_eq!(decode(&encode(inst, &fresh)).unwrap(), (inst, fresh));
     }
@@ -244,14 +244,14 @@ mod tests {
     #[test]
     fn round_trip_keeps_the_input_interpolation() {
         let mut s = running(1);
-        s.ramp = Ramp {
+        s.extra = Ramp {
             t0: [3.3e-3, 0.0, 0.0, 0.0],
             rate: [250.0, 0.0, 0.0, 0.0],
             curvature: [0.0, -40.0, 0.0, 0.0],
         };
         let loads = Loads::new(&s.params, &s.inputs);
         let sim = s.sim.as_mut().unwrap();
-        sim.set_loads(loads, Some(s.ramp));
+        sim.set_loads(loads, Some(s.extra));
         sim.advance(4e-3, &mut |_, _| {}).unwrap();
         let done = FmiState::StepComplete;
         assert_eq!(decode(&encode(done, &s)).unwrap(), (done, s));
