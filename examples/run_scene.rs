@@ -284,7 +284,7 @@ fn run_rust(c: &Config, rows: &mut Vec<Row>) -> RunResult {
     }
     let start = Clock::start();
     let mut sim = Simulation::new(&c.params, &inputs, 0.0, c.params.rel_tol).expect("scene");
-    sim.driver.t_stop = c.stop_time;
+    sim.set_stop_time(c.stop_time);
     let mut o = Outputs::default();
     write(&sim, &mut o).unwrap();
     rows.push(outputs_row(0.0, &o));

@@ -2,9 +2,8 @@
 //! (the check is the layer's, fmi2_slave::ffi::do_step, shared by every FMU of the repository):
 //! at t = 1e15 or 1e300, t + 1e-4 == t and the step is refused like h = 0, naming t and h; on
 //! epoch time (t = 1.7e9 s) the step advances by (t + h) - t and says so once; at an ordinary
-//! time nothing changes. (At t = 1e12 the layer does the same, tested with the algebraic
-//! TorsionalShaft and fmi2-slave's toy model: the gear's own integrator cannot resolve its
-//! internal steps there, ulp(1e12) = 1.2e-4 s, and discards the step.)
+//! time nothing changes. The gear's integrator runs in time since the experiment's start, so
+//! at t = 1e12 (ulp 1.2e-4 s, above its internal steps) it advances as from 0.
 
 mod fmi_support;
 
@@ -100,6 +99,40 @@ fn a_coarse_step_advances_by_the_represented_interval_and_says_so_once() {
     assert_eq!(f.exit_init(), Status::Ok);
     f.log.take();
     assert_eq!(f.do_step(t0, h), Status::Warning);
+}
+
+/// On a late clock the trajectory is the one from t = 0 stepped by the represented interval,
+/// bit for bit: the driver integrates in time since the start, and (t0 + k h_r) - t0 = k h_r
+/// exactly here (t0 an integer, h_r a multiple of ulp(t0)).
+#[test]
+fn a_late_clock_integrates_as_from_zero() {
+    for t0 in [1.7e9, 1e12] {
+        let h = 1e-4;
+        let represented = (t0 + h) - t0;
+        let late = scene_at("late", t0);
+        let early = scene_at("early", 0.0);
+        let (mut t, mut u) = (t0, 0.0);
+        for k in 0..50 {
+            let s = late.do_step(t, h);
+            assert_eq!(
+                s,
+                if k == 0 { Status::Warning } else { Status::Ok },
+                "{:?}",
+                late.log.take()
+            );
+            assert_eq!(early.do_step(u, represented), Status::Ok);
+            t += h;
+            u += represented;
+        }
+        assert_eq!(late.time(), t0 + 50.0 * represented);
+        for name in ["theta_A", "w_A", "dte", "F_fwd"] {
+            assert_eq!(
+                late.get_real(name).to_bits(),
+                early.get_real(name).to_bits(),
+                "{name} at t0 = {t0}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -70,13 +70,13 @@ impl RigSim for Simulation {
         &mut self.rig
     }
     fn into_model(self) -> PaperRig {
-        self.rig
+        self.into_rig().0
     }
     fn time(&self) -> f64 {
         Simulation::time(self)
     }
     fn set_time(&mut self, t: f64) {
-        self.driver.t = t;
+        Simulation::set_time(self, t)
     }
     fn state(&self) -> gear_model::model::State {
         self.driver.state()
@@ -111,13 +111,13 @@ impl RigSim for TrainSimulation {
         &mut self.train
     }
     fn into_model(self) -> Train {
-        self.train
+        self.into_train()
     }
     fn time(&self) -> f64 {
         TrainSimulation::time(self)
     }
     fn set_time(&mut self, t: f64) {
-        self.driver.t = t;
+        TrainSimulation::set_time(self, t)
     }
     fn state(&self) -> gear_model::model::train::State {
         TrainSimulation::state(self)

@@ -89,7 +89,7 @@ impl Rig for MeshRig {
         let mut sim =
             Simulation::new(&s.params, &s.inputs, s.start_time, rel_tol).map_err(|e| e.message)?;
         if let Some(stop) = s.stop_time {
-            sim.driver.t_stop = stop;
+            sim.set_stop_time(stop);
         }
         if let Some(r) = active_ramp(s) {
             sim.set_loads(loads(s), Some(r));

@@ -118,7 +118,7 @@ fn fresh_simulation(
     .map_err(|e| e.message)?;
     sim.set_loads(loads);
     if let Some(stop) = s.stop_time {
-        sim.driver.t_stop = stop;
+        sim.set_stop_time(stop);
     }
     Ok(sim)
 }

@@ -56,7 +56,7 @@ pub fn run_ours(sc: &Scene, solver: i32, rtol: f64) -> Result<RunOut, String> {
     p.solver = solver;
     p.rel_tol = rtol;
     let mut sim = Simulation::new(&p, &sc.inputs, 0.0, rtol).map_err(|e| e.to_string())?;
-    sim.driver.t_stop = sc.t_end;
+    sim.set_stop_time(sc.t_end);
     let n = sc.n_comm();
     let mut dte = Vec::with_capacity(n + 1);
     dte.push(sim.driver.state()[DTE]);

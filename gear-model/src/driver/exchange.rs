@@ -86,8 +86,9 @@ pub struct Exchange<R: ExchangeRig = PaperRig> {
 impl Exchange {
     /// Continues a simulation built at initialization from its current time and state.
     pub fn new(sim: Simulation) -> Exchange {
-        let (t, y) = (sim.time(), sim.driver.state());
-        Exchange::at(sim.rig, t, y)
+        let t = sim.time();
+        let (rig, y) = sim.into_rig();
+        Exchange::at(rig, t, y)
     }
 
     /// `nominals` of a rig before its run starts.

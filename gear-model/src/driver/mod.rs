@@ -147,6 +147,37 @@ pub enum DriverError<E> {
     TooMuchWork { t: f64, steps: u64, events: u64 },
 }
 
+/// Time t in a driver that integrates in time since `origin`. A zero keeps the origin's sign,
+/// so that origin + since(origin, origin) is the origin bit for bit (a start time of -0).
+pub fn since(t: f64, origin: f64) -> f64 {
+    let x = t - origin;
+    if x == 0.0 {
+        0.0f64.copysign(origin)
+    } else {
+        x
+    }
+}
+
+impl<E> DriverError<E> {
+    /// The same error with its time moved by `origin` (a driver integrating in time since
+    /// `origin` reports the FMU's time).
+    pub fn shifted(self, origin: f64) -> DriverError<E> {
+        match self {
+            DriverError::Law { t, err } => DriverError::Law { t: t + origin, err },
+            DriverError::StepTooSmall { t, h } => DriverError::StepTooSmall { t: t + origin, h },
+            DriverError::Solver { t, message } => DriverError::Solver {
+                t: t + origin,
+                message,
+            },
+            DriverError::TooMuchWork { t, steps, events } => DriverError::TooMuchWork {
+                t: t + origin,
+                steps,
+                events,
+            },
+        }
+    }
+}
+
 /// Weighted RMS norm over the controlled components (those with an absolute tolerance).
 pub fn error_norm<Y: Vector>(e: &Y, y0: &Y, y1: &Y, tol: &Tolerance<Y>) -> f64 {
     let (mut sum, mut n) = (0.0, 0);

@@ -85,7 +85,11 @@ impl System for PaperRig {
 #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Simulation {
     pub rig: PaperRig,
+    /// Integrates in time since `origin`: a master on a late clock (epoch time, 1e12 s) would
+    /// leave the internal steps below the spacing of the doubles near its time.
     pub driver: Driver<PaperRig>,
+    /// The experiment's start time \[s\]: the driver's time 0.
+    pub origin: f64,
 }
 
 /// The driver's tolerances for the mesh at rel_tol: the mesh's absolute tolerances of its
@@ -111,6 +115,7 @@ impl Clone for Simulation {
         Simulation {
             rig: self.rig.clone(),
             driver: self.driver.clone(),
+            origin: self.origin,
         }
     }
 }
@@ -122,7 +127,11 @@ impl Simulation {
         rig.stats = self.statistics();
         let mut driver = self.driver.clone();
         driver.observed = driver.t;
-        Simulation { rig, driver }
+        Simulation {
+            rig,
+            driver,
+            origin: self.origin,
+        }
     }
 }
 
@@ -133,20 +142,52 @@ impl Simulation {
         t0: f64,
         rel_tol: f64,
     ) -> Result<Simulation, ModelError> {
-        let (rig, mut y0) = PaperRig::new(p, inputs)?;
-        y0[crate::model::paper_rig::TIME] = t0;
+        let (mut rig, mut y0) = PaperRig::new(p, inputs)?;
+        y0[crate::model::paper_rig::TIME] = 0.0;
+        if let Some(s) = rig.stats.as_mut() {
+            s.start -= t0;
+        }
         let tol = tolerance(&rig, rel_tol);
-        let driver = Driver::new(Method::from_solver(p.solver), tol, t0, y0);
-        Ok(Simulation { rig, driver })
+        let driver = Driver::new(Method::from_solver(p.solver), tol, super::since(t0, t0), y0);
+        Ok(Simulation {
+            rig,
+            driver,
+            origin: t0,
+        })
     }
 
+    /// The FMU's time \[s\].
     pub fn time(&self) -> f64 {
-        self.driver.t
+        self.origin + self.driver.t
     }
 
-    /// New inputs or tunable parameters, and the inputs' interpolation from here on (`Ramp`);
-    /// a change restarts the integration at the current time.
+    /// Moves the time back to t (a step that failed inside the last internal step).
+    pub fn set_time(&mut self, t: f64) {
+        self.driver.t = super::since(t, self.origin);
+    }
+
+    /// Never step past t (the experiment's stop time).
+    pub fn set_stop_time(&mut self, t: f64) {
+        self.driver.t_stop = t - self.origin;
+    }
+
+    /// The rig for a master that integrates it in its own time (Model Exchange), and the state.
+    pub fn into_rig(self) -> (PaperRig, State) {
+        let (mut rig, mut y) = (self.rig, self.driver.state());
+        if let Some(s) = rig.stats.as_mut() {
+            s.start += self.origin;
+        }
+        y[crate::model::paper_rig::TIME] = self.origin + self.driver.t;
+        (rig, y)
+    }
+
+    /// New inputs or tunable parameters, and the inputs' interpolation from here on (`Ramp`,
+    /// in the FMU's time); a change restarts the integration at the current time.
     pub fn set_loads(&mut self, loads: Loads, ramp: Option<Ramp>) {
+        let ramp = ramp.map(|mut r| {
+            r.t0.iter_mut().for_each(|t| *t -= self.origin);
+            r
+        });
         if loads != self.rig.loads || ramp != self.rig.ramp {
             self.observe_to_now();
             self.driver.invalidate();
@@ -200,15 +241,21 @@ impl Simulation {
 
     /// Whether advancing to t_end integrates or handles an event (else it only moves the time).
     pub fn needs_work(&self, t_end: f64) -> bool {
-        let d = &self.driver;
+        let (d, t_end) = (&self.driver, t_end - self.origin);
         d.needs_restart || d.pending.is_some_and(|e| e.t <= t_end) || d.method_time() < t_end
     }
 
+    /// Advances to the FMU's time t_end; `log` receives each event at its FMU time.
     pub fn advance(
         &mut self,
         t_end: f64,
         log: &mut dyn FnMut(f64, &EventReport),
     ) -> Result<(), DriverError<LawOutOfRange>> {
-        self.driver.advance(&mut self.rig, t_end, log)
+        let origin = self.origin;
+        self.driver
+            .advance(&mut self.rig, super::since(t_end, origin), &mut |t, r| {
+                log(origin + t, r)
+            })
+            .map_err(|e| e.shifted(origin))
     }
 }

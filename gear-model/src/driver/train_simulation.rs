@@ -63,7 +63,10 @@ pub fn tolerance(train: &Train, rtol: f64) -> Tolerance<State> {
 #[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TrainSimulation {
     pub train: Train,
+    /// Integrates in time since `origin` (see `Simulation::driver`).
     pub driver: Driver<Train>,
+    /// The experiment's start time \[s\]: the driver's time 0.
+    pub origin: f64,
 }
 
 impl Clone for TrainSimulation {
@@ -78,7 +81,11 @@ impl Clone for TrainSimulation {
             train.stats = self.statistics();
             driver.observed = driver.t;
         }
-        TrainSimulation { train, driver }
+        TrainSimulation {
+            train,
+            driver,
+            origin: self.origin,
+        }
     }
 }
 
@@ -92,14 +99,38 @@ impl TrainSimulation {
         t0: f64,
         rel_tol: f64,
     ) -> Result<TrainSimulation, ModelError> {
-        let (train, y0) = Train::new(spec, tau, statistics)?;
+        let (train, y0) = Train::new(spec, tau, statistics.map(|s| s - t0))?;
         let tol = tolerance(&train, rel_tol);
-        let driver = Driver::new(Method::from_solver(solver), tol, t0, y0);
-        Ok(TrainSimulation { train, driver })
+        let driver = Driver::new(Method::from_solver(solver), tol, super::since(t0, t0), y0);
+        Ok(TrainSimulation {
+            train,
+            driver,
+            origin: t0,
+        })
     }
 
+    /// The FMU's time \[s\].
     pub fn time(&self) -> f64 {
-        self.driver.t
+        self.origin + self.driver.t
+    }
+
+    /// Moves the time back to t (a step that failed inside the last internal step).
+    pub fn set_time(&mut self, t: f64) {
+        self.driver.t = super::since(t, self.origin);
+    }
+
+    /// Never step past t (the experiment's stop time).
+    pub fn set_stop_time(&mut self, t: f64) {
+        self.driver.t_stop = t - self.origin;
+    }
+
+    /// The train for a master that integrates it in its own time (Model Exchange).
+    pub fn into_train(self) -> Train {
+        let mut train = self.train;
+        for s in train.stats.iter_mut().flatten() {
+            s.start += self.origin;
+        }
+        train
     }
 
     /// New torques or coefficients: the integration restarts at the current time.
@@ -153,16 +184,22 @@ impl TrainSimulation {
 
     /// Whether advancing to t_end integrates or handles an event.
     pub fn needs_work(&self, t_end: f64) -> bool {
-        let d = &self.driver;
+        let (d, t_end) = (&self.driver, t_end - self.origin);
         d.needs_restart || d.pending.is_some_and(|e| e.t <= t_end) || d.method_time() < t_end
     }
 
+    /// Advances to the FMU's time t_end; `log` receives each event at its FMU time.
     pub fn advance(
         &mut self,
         t_end: f64,
         log: &mut dyn FnMut(f64, &EventReport),
     ) -> Result<(), DriverError<LawOutOfRange>> {
-        self.driver.advance(&mut self.train, t_end, log)
+        let origin = self.origin;
+        self.driver
+            .advance(&mut self.train, super::since(t_end, origin), &mut |t, r| {
+                log(origin + t, r)
+            })
+            .map_err(|e| e.shifted(origin))
     }
 
     /// The state at the current time.
