@@ -95,8 +95,7 @@ impl Geometry {
                     "parameter internal = true: an internal pair needs standard gear data (geometry = 2); the paper geometry is the article's external pair".into(),
                 ))
             }
-            (2, false) => Self::standard(p, e_star)?,
-            (2, true) => Self::ring(p, e_star)?,
+            (2, _) => Self::standard(p, e_star)?,
             (other, _) => {
                 return Err(ModelError::parameter(
                     "geometry",
@@ -395,78 +394,58 @@ impl Geometry {
             - p.backlash / (2.0 * r_b)
     }
 
+    /// Standard gear data: an external pair, or (`internal`) a pinion A inside a ring B
+    /// (planetary.md §1: O_B at (-d, 0) in the paper frame, the ring's tips inwards, its tooth
+    /// space on the reference circle m (pi/2 + 2 xB tan a0)). With kappa = -1 for the ring, the
+    /// sums of an external pair become differences.
     fn standard(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
         // Ranges: `validate` (the variable table).
         let (m, a0) = (p.module, p.pressure_angle);
         let (za, zb) = (p.zA as f64, p.zB as f64);
-        let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xA + p.xB) / (za + zb);
-        let alpha_w = inv_inverse(inv_w).ok_or_else(|| {
-            ModelError::new(format!(
-                "profile shifts xA = {}, xB = {} give inv(alpha_w) = {inv_w}: no operating pressure angle",
-                p.xA, p.xB
-            ))
-        })?;
-        let d = m * (za + zb) / 2.0 * a0.cos() / alpha_w.cos();
-        let (r_ab, r_bb) = (m * za * a0.cos() / 2.0, m * zb * a0.cos() / 2.0);
-        let l = d * alpha_w.sin();
-        let r_tip_a = m * za / 2.0 + m * (p.addendum + p.xA);
-        let r_tip_b = m * zb / 2.0 + m * (p.addendum + p.xB);
-        let s_b = (r_tip_a * r_tip_a - r_ab * r_ab).max(0.0).sqrt();
-        let s_a = l - (r_tip_b * r_tip_b - r_bb * r_bb).max(0.0).sqrt();
-        Ok(Geometry {
-            alpha_w,
-            r_ab,
-            r_bb,
-            d,
-            l,
-            s_a,
-            s_b,
-            p_b: r_ab * 2.0 * PI / za,
-            t_a: Self::base_thickness(p, za, p.xA, r_ab),
-            t_b: Self::base_thickness(p, zb, p.xB, r_bb),
-            r_tip_a,
-            r_tip_b,
-            e_star,
-            ..Geometry::empty()
-        })
-    }
-
-    /// A pinion A inside a ring B (planetary.md §1): O_B at (-d, 0) in the paper frame, the
-    /// ring's tips inwards, its tooth space on the reference circle m (pi/2 + 2 xB tan a0).
-    fn ring(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
-        let (m, a0) = (p.module, p.pressure_angle);
-        let (za, zb) = (p.zA as f64, p.zB as f64);
-        if p.zB <= p.zA {
+        let (kappa, pair) = if p.internal {
+            (-1.0, "internal pair: ")
+        } else {
+            (1.0, "")
+        };
+        if p.internal && p.zB <= p.zA {
             return Err(ModelError::new(format!(
-                "internal pair: the ring needs more teeth than the pinion (zA = {}, zB = {})",
+                "{pair}the ring needs more teeth than the pinion (zA = {}, zB = {})",
                 p.zA, p.zB
             )));
         }
-        let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xB - p.xA) / (zb - za);
+        let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xB + kappa * p.xA) / (zb + kappa * za);
         let alpha_w = inv_inverse(inv_w).ok_or_else(|| {
             ModelError::new(format!(
-                "internal pair: profile shifts xA = {}, xB = {} give inv(alpha_w) = {inv_w}: no operating pressure angle",
+                "{pair}profile shifts xA = {}, xB = {} give inv(alpha_w) = {inv_w}: no operating pressure angle",
                 p.xA, p.xB
             ))
         })?;
-        let d = m * (zb - za) / 2.0 * a0.cos() / alpha_w.cos();
+        let d = m * (zb + kappa * za) / 2.0 * a0.cos() / alpha_w.cos();
         let (r_ab, r_bb) = (m * za * a0.cos() / 2.0, m * zb * a0.cos() / 2.0);
         let l = d * alpha_w.sin();
         let r_tip_a = m * za / 2.0 + m * (p.addendum + p.xA);
-        let r_tip_b = m * zb / 2.0 - m * (p.addendum - p.xB);
-        if !(r_tip_b > r_bb) {
+        // A ring's tips point inwards: its addendum counts towards its axis.
+        let r_tip_b = m * zb / 2.0 + m * (kappa * p.addendum + p.xB);
+        if p.internal && !(r_tip_b > r_bb) {
             return Err(ModelError::new(format!(
-                "internal pair: the ring's tip circle (radius r_Ba = {r_tip_b} m) is not outside its base circle \
+                "{pair}the ring's tip circle (radius r_Ba = {r_tip_b} m) is not outside its base circle \
                  (rBb = {r_bb} m), where its involute flanks begin; raise xB or lower the addendum \
                  (module = {m}, zB = {}, xB = {}, addendum = {})",
                 p.zB, p.xB, p.addendum
             )));
         }
         let s_b = (r_tip_a * r_tip_a - r_ab * r_ab).max(0.0).sqrt();
-        let s_a = (r_tip_b * r_tip_b - r_bb * r_bb).sqrt() - l;
-        let e_b = (PI / 2.0 + 2.0 * p.xB * a0.tan()) * 2.0 / zb
-            + 2.0 * inv(a0)
-            + p.backlash / (2.0 * r_bb);
+        let s_a = kappa * (l - (r_tip_b * r_tip_b - r_bb * r_bb).max(0.0).sqrt());
+        let t_b = if p.internal {
+            // The ring's tooth space on its base circle (the spec's eB, widened by half the
+            // backlash); its tooth is the rest of the pitch.
+            let e_b = (PI / 2.0 + 2.0 * p.xB * a0.tan()) * 2.0 / zb
+                + 2.0 * inv(a0)
+                + p.backlash / (2.0 * r_bb);
+            2.0 * PI / zb - e_b
+        } else {
+            Self::base_thickness(p, zb, p.xB, r_bb)
+        };
         Ok(Geometry {
             alpha_w,
             r_ab,
@@ -477,7 +456,7 @@ impl Geometry {
             s_b,
             p_b: r_ab * 2.0 * PI / za,
             t_a: Self::base_thickness(p, za, p.xA, r_ab),
-            t_b: 2.0 * PI / zb - e_b,
+            t_b,
             r_tip_a,
             r_tip_b,
             e_star,

@@ -267,7 +267,7 @@ fn internal(za: i32, zb: i32, xa: f64, xb: f64, module: f64) -> Params {
 
 /// The ring front end's geometry before any check (as `at_distance` fills it in).
 fn unchecked(p: &Params) -> Geometry {
-    let mut g = Geometry::ring(p, 1.0).unwrap();
+    let mut g = Geometry::standard(p, 1.0).unwrap();
     g.z_a = p.zA as f64;
     g.z_b = p.zB as f64;
     g.d_a = 2.0 * PI / g.z_a;
@@ -341,7 +341,7 @@ fn at_zero_shift_the_other_rules_refuse_what_the_tip_corners_would() {
     for za in [12, 17, 20, 25, 30, 40] {
         for diff in 1..=30 {
             let p = internal(za, za + diff, 0.0, 0.0, 0.002);
-            if Geometry::ring(&p, 1.0).is_err() {
+            if Geometry::standard(&p, 1.0).is_err() {
                 continue; // the ring's tips inside its base circle: refused by a rule
             }
             let mut g = unchecked(&p);
