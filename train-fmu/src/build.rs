@@ -64,7 +64,12 @@ pub fn element(name: &str) -> Option<(&str, usize, &str)> {
 /// train has as `mesh[m].<name>`; the others (the rig's) keep their defaults.
 pub fn mesh_params(p: &Params, m: usize) -> single::Params {
     let mut s = single::Params::default();
-    for info in single::VARIABLES {
+    // The train also shows a mesh's outputs and calculated parameters under `mesh[m].`: only
+    // parameters are copied.
+    let parameters = single::VARIABLES
+        .iter()
+        .filter(|i| i.causality == single::Causality::Parameter);
+    for info in parameters {
         let Some(v) = Var::from_name(&format!("mesh[{m}].{}", info.name)) else {
             continue;
         };
