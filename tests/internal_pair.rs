@@ -237,3 +237,25 @@ fn what_a_ring_cannot_have_yet_is_refused() {
     .unwrap_err();
     assert!(e.message.contains("slider"), "{}", e.message);
 }
+
+/// Rigid contact (contact_model = 2) on a ring: locked on the forward flank from the start,
+/// the wheels roll as one body; at the balanced speed the constraint force is exactly
+/// tau_A / rAb (rAb's lever, no friction), which the integrator holds to its tolerance, and the
+/// ratio is zB/zA to rounding (dte stays 0).
+#[test]
+fn rigid_contact_on_a_ring_rolls_as_one_body() {
+    let (p, i) = drive(ring(0.0, 0.0));
+    let p = Params {
+        contact_model: 2,
+        dte_start: 0.0,
+        ..p
+    };
+    let g = Geometry::new(&p).unwrap();
+    let rtol = 1e-10;
+    let f = i.tau_A / g.r_ab;
+    for o in run(&p, &i, rtol, 1e-4, 0.01) {
+        assert!((o.F_fwd - f).abs() <= 10.0 * rtol * f, "{} vs {f}", o.F_fwd);
+        assert_eq!((o.F_bwd, o.dte), (0.0, 0.0));
+        assert!((o.w_A / o.w_B - 3.0).abs() <= 1e-12, "{}", o.w_A / o.w_B);
+    }
+}
