@@ -259,3 +259,30 @@ fn rigid_contact_on_a_ring_rolls_as_one_body() {
         assert!((o.w_A / o.w_B - 3.0).abs() <= 1e-12, "{}", o.w_A / o.w_B);
     }
 }
+
+/// A housing that turns with angular acceleration alpha (rig-and-modes.md: the wheels' angles
+/// are relative to it) drives free wheels at -alpha relative to it in the paper frame; both a
+/// pinion's and a ring's forward sense is clockwise, so both read +alpha in the interface,
+/// where an external pair's B reads -alpha. Inside the backlash nothing touches: w = alpha t
+/// exactly (the integrator is exact on a linear speed).
+#[test]
+fn a_turning_housing_turns_both_wheels_of_a_ring_forward() {
+    let p = Params {
+        dte_start: -2.5e-5,
+        w_A_start: 0.0,
+        w_B_start: 0.0,
+        c_load: 0.0,
+        ..ring(0.0, 0.0)
+    };
+    let i = Inputs {
+        tau_A: 0.0,
+        alpha_housing: 10.0,
+        ..Inputs::default()
+    };
+    let t = 1e-3;
+    let o = run(&p, &i, 1e-10, t, t).pop().unwrap();
+    assert_eq!((o.F_fwd, o.F_bwd), (0.0, 0.0));
+    for w in [o.w_A, o.w_B] {
+        assert!((w - 10.0 * t).abs() <= 1e-12, "{} vs {}", o.w_A, o.w_B);
+    }
+}
