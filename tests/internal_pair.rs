@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::static_delta;
+use common::{run, static_delta};
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
@@ -31,17 +31,6 @@ fn ring(chi: f64, mu: f64) -> Params {
         backlash: 5e-5,
         ..Params::default()
     }
-}
-
-fn run(p: &Params, i: &Inputs, rtol: f64, h: f64, t_end: f64) -> Vec<Outputs> {
-    let mut sim = Simulation::new(p, i, 0.0, rtol).unwrap();
-    let n = (t_end / h).round() as usize;
-    (1..=n)
-        .map(|k| {
-            sim.advance(k as f64 * h, &mut |_, _| {}).unwrap();
-            outputs(&sim).unwrap()
-        })
-        .collect()
 }
 
 /// A drive of 20 N.m on the pinion against a viscous load on the ring that balances it at

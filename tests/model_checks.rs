@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::static_delta;
+use common::{run, static_delta};
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
@@ -26,18 +26,6 @@ fn paper(chi: f64) -> (Params, Inputs) {
             ..Inputs::default()
         },
     )
-}
-
-/// Runs with communication step h to t_end, returning the outputs at every communication point.
-fn run(p: &Params, i: &Inputs, rtol: f64, h: f64, t_end: f64) -> Vec<Outputs> {
-    let mut sim = Simulation::new(p, i, 0.0, rtol).unwrap();
-    let n = (t_end / h).round() as usize;
-    (1..=n)
-        .map(|k| {
-            sim.advance(k as f64 * h, &mut |_, _| {}).unwrap();
-            outputs(&sim).unwrap()
-        })
-        .collect()
 }
 
 /// Static load: balanced torques, start at the static penetration, rolling slowly (1e-3 rad/s,
