@@ -149,6 +149,34 @@ def _fmt(v):
     return repr(float(v))
 
 
+# The .ssd's name and its system's: OMSimulator takes both as identifiers ([a-zA-Z][a-zA-Z0-9_]*)
+# and refuses "two-stage" (`"two-stage" is not a valid ident`).
+SSD_NAME = "two_stage"
+# the communication step the .ssd proposes (libcosim's baseStepSize, OMSimulator's stepSize)
+STEP = 1e-5
+OMS_NS = "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"
+
+
+def oms_system_annotation(step, rel_tol, indent):
+    """The lines of an ssd:Annotations for an ssd:System (after its Connections, as the SSP 1.0
+    schema orders them) that OMSimulator needs: it reads the system's type only from its own
+    annotation, and without one its import of an .ssp ends in `internal error`.  oms:FixedStepMaster
+    makes the system weakly coupled (FMI co-simulation) with its fixed-step master "oms-ma" at
+    `step`; relativeTolerance is what it passes to fmi2SetupExperiment (our FMUs take the tighter
+    of it and their rel_tol).  Other tools skip annotations of types they do not know."""
+    i = indent
+    return [f"{i}<ssd:Annotations>",
+            f'{i}  <ssc:Annotation type="org.openmodelica">',
+            f"{i}    <oms:Annotations>",
+            f"{i}      <oms:SimulationInformation>",
+            f'{i}        <oms:FixedStepMaster description="oms-ma" stepSize="{step:g}" '
+            f'absoluteTolerance="{rel_tol:g}" relativeTolerance="{rel_tol:g}"/>',
+            f"{i}      </oms:SimulationInformation>",
+            f"{i}    </oms:Annotations>",
+            f"{i}  </ssc:Annotation>",
+            f"{i}</ssd:Annotations>"]
+
+
 def write_ssd(path=SSD, rel_tol=REL_TOL):
     s = system(rel_tol)
     lines = [
@@ -164,13 +192,18 @@ def write_ssd(path=SSD, rel_tol=REL_TOL):
         "  (the single mesh starts theta_A there), so the twist equals the monolithic train's; the",
         "  engine's phase is shifted by order * gear1.theta_A(0) for the same reason.",
         "  Build the .ssp with `python cosim/drivetrain.py ssp`; see docs/cosim.md.",
+        f"  The names are identifiers ({SSD_NAME}: OMSimulator refuses others). The system's",
+        "  org.openmodelica annotation tells OMSimulator it is a weakly coupled system with a",
+        "  fixed-step master (without it its import ends in an internal error); other tools ignore",
+        "  it. The com.opensimulationplatform one gives libcosim the same step (docs/omsimulator.md).",
         "-->",
-        '<ssd:SystemStructureDescription version="1.0" name="two-stage"',
+        f'<ssd:SystemStructureDescription version="1.0" name="{SSD_NAME}"',
         '    xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"',
         '    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"',
         '    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"',
+        f'    xmlns:oms="{OMS_NS}"',
         '    xmlns:osp="http://opensimulationplatform.com/SSP/OSPAnnotations">',
-        '  <ssd:System name="two-stage" description="An engine driving two spur gear stages joined by a compliant shaft">',
+        f'  <ssd:System name="{SSD_NAME}" description="An engine driving two spur gear stages joined by a compliant shaft">',
         "    <ssd:Elements>",
     ]
     for comp in ("engine", "gear1", "shaft", "gear2"):
@@ -196,11 +229,11 @@ def write_ssd(path=SSD, rel_tol=REL_TOL):
     lines.append("    <ssd:Connections>")
     for a, ca, b, cb in CONNECTIONS:
         lines.append(f'      <ssd:Connection startElement="{a}" startConnector="{ca}" endElement="{b}" endConnector="{cb}"/>')
-    lines += [
-        "    </ssd:Connections>", "  </ssd:System>",
+    lines += ["    </ssd:Connections>"] + oms_system_annotation(STEP, rel_tol, "    ") + [
+        "  </ssd:System>",
         f'  <ssd:DefaultExperiment startTime="0.0" stopTime="{_fmt(s["stop_time"])}">',
         "    <ssd:Annotations>", '      <ssc:Annotation type="com.opensimulationplatform">',
-        "        <osp:Algorithm>", '          <osp:FixedStepAlgorithm baseStepSize="1e-5"/>',
+        "        <osp:Algorithm>", f'          <osp:FixedStepAlgorithm baseStepSize="{STEP:g}"/>',
         "        </osp:Algorithm>", "      </ssc:Annotation>", "    </ssd:Annotations>",
         "  </ssd:DefaultExperiment>", "</ssd:SystemStructureDescription>", ""]
     Path(path).write_text("\n".join(lines))
