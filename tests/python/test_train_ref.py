@@ -391,20 +391,25 @@ def test_pair_energy_closed_form_against_quadrature():
 
 # ------------------------------------------------------------------------------ 7. validation
 BAD = [
-    ({"n_bodies": 9}, ValueError, "n_bodies = 9"),
+    # capacity 16 bodies, 15 shafts, 16 meshes (planetary.md section 5)
+    ({"n_bodies": 17}, ValueError, "n_bodies = 17"),
     ({"n_bodies": 0}, ValueError, "n_bodies = 0"),
-    ({"n_meshes": 7}, ValueError, "n_meshes = 7"),
+    ({"n_meshes": 17}, ValueError, "n_meshes = 17"),
+    ({"n_shafts": 16}, ValueError, "n_shafts = 16"),
     ({"n_shafts": -1}, ValueError, "n_shafts = -1"),
     ({"shaft[1].b": 5}, ValueError, "shaft[1].b = 5"),
-    ({"mesh[2].A": 0}, ValueError, "mesh[2].A = 0"),
+    ({"mesh[2].A": -1}, ValueError, "mesh[2].A = -1"),     # 0 (the housing) is admitted
     ({"shaft[1].a": 3}, ValueError, "shaft[1] joins body[3] to itself"),
     ({"mesh[1].B": 1}, ValueError, "mesh[1] joins body[1] to itself"),
-    # cycle: mesh 2 back from body 4 to body 2 (and body 3 then hangs loose)
-    ({"mesh[2].A": 4, "mesh[2].B": 2, "shaft[1].a": 2, "shaft[1].b": 4}, ValueError,
-     "cycle through"),
+    # loops are admitted (planetary.md section 4), but not one whose senses conflict: a shaft
+    # (keeps the sense) alongside an external mesh (flips it) between bodies 1 and 2
+    ({"shaft[2].a": 1, "shaft[2].b": 2, "n_shafts": 2}, ValueError,
+     "conflicting forward senses"),
     ({"n_meshes": 1, "n_shafts": 2, "shaft[2].a": 2, "shaft[2].b": 3}, ValueError,
      "body[4] not connected"),
     ({"n_shafts": 0}, ValueError, "body[3], body[4] not connected"),
+    ({"mesh[2].A": 4, "mesh[2].B": 2, "shaft[1].a": 2, "shaft[1].b": 4}, ValueError,
+     "body[3] not connected"),
     ({"mesh[2].contact_model": 2}, ValueError, "rigid contact"),
     ({"mesh[1].contact_model": 3}, NotImplementedError, "mesh[1]"),
     ({"mesh[1].tip_relief_A": 1e-5, "mesh[1].tip_relief_length_A": 1e-3}, NotImplementedError,
@@ -412,7 +417,7 @@ BAD = [
     ({"body[3].J": 0.0}, ValueError, "body[3].J"),
     ({"shaft[1].k": 0.0}, ValueError, "shaft[1].k"),
     ({"mesh[2].zA": 23}, G.GeometryError, "mesh[2]"),
-    ({"body[9].J": 1.0}, KeyError, "capacity"),
+    ({"body[17].J": 1.0}, KeyError, "capacity"),
     ({"mesh[1].J_A": 1.0}, KeyError, "mesh[1].J_A"),
 ]
 
@@ -424,12 +429,16 @@ def test_validation_errors_name_the_elements(sv, exc, text):
     assert text in str(info.value), str(info.value)
 
 
-def test_cycle_message_names_its_elements():
+def test_conflicting_loop_message_names_its_closing_element():
+    """Three external gears in a triangle: the senses conflict around the loop (planetary.md
+    section 4); the message names the loop's meshes."""
+    sv = {"n_bodies": 3, "n_shafts": 0, "n_meshes": 3, "mesh[2].A": 2, "mesh[2].B": 3,
+          "mesh[3].A": 3, "mesh[3].B": 1}
     with pytest.raises(ValueError) as info:
-        T.GearTrain({"n_bodies": 3, "n_shafts": 1, "n_meshes": 2, "mesh[2].A": 2, "mesh[2].B": 3,
-                     "shaft[1].a": 3, "shaft[1].b": 1})
+        T.GearTrain(sv)
     msg = str(info.value)
-    for name in ("mesh[1]", "mesh[2]", "shaft[1]"):
+    assert "conflicting forward senses" in msg, msg
+    for name in ("mesh[1]", "mesh[2]", "mesh[3]"):
         assert name in msg, msg
 
 

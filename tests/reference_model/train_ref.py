@@ -91,6 +91,45 @@ CENTRE DISTANCE (planetary.md section 2): mesh[m].center_distance_error goes to 
 mesh's Geometry, which computes alpha_w, d, L, s_a and the actual backlash at the actual
 distance; the train uses those everywhere (center_angle is still the direction of O_A -> O_B).
 
+PLANETARY TRAINS (planetary.md sections 3-4; GENERAL mode, used when an element names the
+housing, a body has a carrier, or the meshes and shafts close a loop; a tree without these runs
+the code above unchanged, bit for bit).  Decisions agreed with the Rust side where the spec is
+silent:
+  * body 0 is the housing (index n_bodies internally): a mesh end 0 is a fixed gear, a shaft end
+    0 a torsional mount.  Forward senses walk from body 1 over meshes and shafts, never through
+    the housing; an unreached part takes -1 at its lowest index; for body 0 a mesh uses the sense
+    it gives from its other end (external: opposite, internal: the same).
+  * body[i].carrier = c: planet i turns about an axis fixed in c.  Its orbit radius R_i is the
+    NOMINAL operating centre distance of its lowest-index mesh with a central member (a body on
+    a housing-fixed axis, or body 0); its axis in the carrier's frame is (R_i + pin_error_r)
+    (cos phi, sin phi) + pin_error_t (-sin phi, cos phi), phi = orbit_angle; central members on
+    the carrier's axis.  A mesh with a planet is in its carrier's frame: d = |O_B - O_A| + its
+    center_distance_error (the single-mesh Geometry at center_distance_error = d - d_nominal),
+    beta = direction O_A -> O_B (+ pi for an internal pair), mirrored when sigma_A = +1, angles
+    relative to the carrier: theta_rel = theta - sigma sigma_c theta_c.  Its torques on A and B
+    are the single mesh's; the carrier gets minus their sum in absolute terms.  Orbital inertia
+    body[i].m R_i^2 is added to the carrier's J; a planet's drag acts on its speed relative to
+    its carrier, which takes the reaction.  housing.tau = the absolute (counter-clockwise)
+    torques meshes and shafts apply to body 0 (a carrier's reactions go to the carrier).
+  * Placement: breadth-first from the housing (psi 0) if any element names it, else from body 1
+    (psi = angle_start; a carrier is at 0 regardless).  Every carrier starts at psi 0; the queue
+    starts [root, carriers in ascending index]; each popped body places the unplaced bodies of
+    its meshes (index order; gear-train.md section 4 in the mesh's frame, psi in (-pi/z, pi/z])
+    then of its shafts.  Every other mesh CLOSES A LOOP: the tooth pairing whose forward
+    penetration delta0 (from the placed angles) lies nearest -j_n/2; its dte = delta0 + e;
+    refused when delta0 > 0.01 p_b or -j_n - delta0 > 0.01 p_b.
+  * Coordinates: x = [theta of the FREE bodies, coordinates of the INDEPENDENT edges], a basis
+    of the body angles: the placing edges (each brings in a new body) plus any loop edge that
+    raises the rank, then free bodies in ascending index until the basis is complete (the rigid
+    degrees of freedom).  theta = T x; a dependent loop mesh has e = ce . x with its
+    coefficients on the free bodies zero (they vanish analytically: its row lies in the span of
+    the edge rows), so its dte is a combination of small edge coordinates and keeps a few 1e-16 m
+    however far the bodies turn.
+  * Refused, naming the elements: indices out of range, self-joins, a carried carrier, a planet
+    meshing with a planet of another carrier or with its own carrier, a planet with no mesh or no
+    central member, a nonzero center_angle in a carrier's frame, an unconnected body, conflicting
+    senses around a loop, a jammed body (no rigid rolling of the meshes, shafts absent, turns it).
+
 Readings of the spec where it leaves room are listed in the report and marked in the code.
 """
 
@@ -111,7 +150,7 @@ from scipy.integrate import quad, solve_ivp
 from . import gearmesh_ref as G
 from . import deviations_ref as D
 
-CAPACITY = {"body": 8, "shaft": 7, "mesh": 6}
+CAPACITY = {"body": 16, "shaft": 15, "mesh": 16}
 
 # Single-mesh parameters that do not belong to a pair (spec section 1): bodies carry inertia,
 # drag, start speed and torque; solver and tolerance belong to the whole train.
@@ -120,7 +159,8 @@ NOT_PER_MESH = {"J_A", "J_B", "c_load", "w_A_start", "w_B_start", "tau_A", "tau_
 MESH_PAIR_KEYS = [k for k in G.DEFAULTS if k not in NOT_PER_MESH]
 MESH_PLACE_KEYS = {"A": 0, "B": 0, "center_angle": 0.0, "mount_A": 0.0, "mount_B": 0.0}
 SHAFT_KEYS = ("a", "b", "k", "d", "twist_start")
-BODY_KEYS = ("J", "c", "w_start", "tau", "tau_ripple", "ripple_order", "ripple_phase")
+BODY_KEYS = ("J", "c", "w_start", "tau", "tau_ripple", "ripple_order", "ripple_phase",
+             "carrier", "orbit_angle", "m", "pin_error_r", "pin_error_t")
 INTEGER_KEYS = {"n_bodies", "n_shafts", "n_meshes", "solver"}
 TOP_KEYS = {"n_bodies": 4, "n_shafts": 1, "n_meshes": 2, "rel_tol": 1e-6, "solver": 1}
 
@@ -129,14 +169,19 @@ def train_defaults() -> dict:
     """The defaults agreed with the Rust side: a two-stage reducer (paper-geometry 22/33 meshes)
     with a compliant intermediate shaft between bodies 2 and 3."""
     d = dict(TOP_KEYS)
-    J = [0.4, 2.0, 0.4, 2.0] + [1.0] * 4
-    w = [100.0, 100.0 / 1.5, 100.0 / 1.5, 100.0 / 2.25] + [0.0] * 4
+    nbc = CAPACITY["body"]
+    J = [0.4, 2.0, 0.4, 2.0] + [1.0] * (nbc - 4)
+    w = [100.0, 100.0 / 1.5, 100.0 / 1.5, 100.0 / 2.25] + [0.0] * (nbc - 4)
     for i in range(1, CAPACITY["body"] + 1):
         d[f"body[{i}].J"] = J[i - 1]
         d[f"body[{i}].c"] = 2.0 if i == 4 else 0.0
         d[f"body[{i}].w_start"] = w[i - 1]
         d[f"body[{i}].tau"] = 100.0 if i == 1 else 0.0
         d[f"body[{i}].tau_ripple"] = d[f"body[{i}].ripple_order"] = d[f"body[{i}].ripple_phase"] = 0.0
+        # planetary.md section 3 (defaults agreed with the Rust side): a housing-fixed axis
+        d[f"body[{i}].carrier"] = 0
+        d[f"body[{i}].orbit_angle"] = d[f"body[{i}].m"] = 0.0
+        d[f"body[{i}].pin_error_r"] = d[f"body[{i}].pin_error_t"] = 0.0
     d["body[1].angle_start"] = 0.0
     for j in range(1, CAPACITY["shaft"] + 1):
         a, b, dd = (2, 3, 5.0) if j == 1 else (1, 2, 0.0)
@@ -175,7 +220,8 @@ def make_train_params(start_values: dict | None = None) -> dict:
                 raise TypeError(f"{key} must be a string")
         elif (key in INTEGER_KEYS or (m and m.group(1) == "mesh" and
                                       (base in G.INTEGER_PARAMS or base in ("A", "B")))
-              or (m and m.group(1) == "shaft" and base in ("a", "b"))):
+              or (m and m.group(1) == "shaft" and base in ("a", "b"))
+              or (m and m.group(1) == "body" and base == "carrier")):
             if isinstance(v, bool) or int(v) != v:
                 raise TypeError(f"{key} must be an integer")
             v = int(v)
@@ -250,6 +296,11 @@ class Body:
     w0: float
     tau: float
     ripple: tuple = (0.0, 0.0, 0.0)   # amplitude, order, phase: + A sin(order theta + phase)
+    carrier: int = 0                  # body[i].carrier (1-based; 0 = a housing-fixed axis)
+    orbit: float = 0.0                # body[i].orbit_angle
+    mass: float = 0.0                 # body[i].m (orbital inertia m R^2 on the carrier)
+    pin_r: float = 0.0                # body[i].pin_error_r, pin_error_t
+    pin_t: float = 0.0
 
 
 @dataclass
@@ -340,10 +391,36 @@ class TrainMesh:
                 - g.L - self.dte0) / g.rAb
         return reduce_angle(self.psi_of(chiA, self.mount_A), g.zA)
 
-    def set_offsets(self, psiA0, psiB0):
-        """Tooth offsets SfA, SfB, SbA, SbB and the pairings K_f, K_b (module docstring)."""
+    def set_offsets_loop(self, psiA0, psiB0, train):
+        """A mesh that closes a loop (planetary.md section 4): the tooth pairing whose forward
+        penetration delta0 (from the placed angles) lies nearest -j_n/2, the middle of its actual
+        backlash; delta0 replaces dte_start.  Refused when either flank starts more than 1 % of
+        p_b into its teeth."""
         g = self.g
-        aw, pb = g.alpha_w, g.p_b
+        pb, j = g.p_b, g.backlash
+        self._offsets(psiA0, psiB0)
+        c0 = self.SfA + self.SfB - g.L
+        K = round((c0 + 0.5 * j) / pb)
+        delta0 = c0 - K * pb
+        if train.check_assembly and (delta0 > 0.01 * pb or -j - delta0 > 0.01 * pb):
+            flank, pen = (("forward", delta0) if delta0 > 0.01 * pb else ("backward", -j - delta0))
+            hint = ""
+            for X in (self.A, self.B):
+                if X != train.H and train.carrier_of[X] is not None:
+                    hint = (f"; {train._body_name(X)} sits at orbit angle "
+                            f"{train.bodies[X].orbit!r} rad: in a simple planetary set "
+                            "(z_sun + z_ring) (psi_n - psi_1) / (2 pi) must be an integer "
+                            "(the assembly condition)")
+            raise ValueError(
+                f"mesh[{self.m}] closes a loop and cannot be assembled as placed: its {flank} "
+                f"flank would start {pen!r} m into its teeth (more than 1 % of the base pitch "
+                f"p_b = {pb!r} m; actual backlash {j!r} m){hint}")
+        self.dte0 = delta0
+        self._pairings()
+
+    def _offsets(self, psiA0, psiB0):
+        g = self.g
+        aw = g.alpha_w
         chiA0 = self.chi_of(psiA0, self.mount_A)
         chiB0 = self.chi_of(psiB0, self.mount_B)
         self.SfA = g.rAb * (aw - chiA0 + g.tA / 2)
@@ -354,6 +431,15 @@ class TrainMesh:
         else:
             self.SfB = g.rBb * (aw + math.pi - chiB0 + g.tB / 2)
             self.SbB = g.rBb * (aw - math.pi + chiB0 + g.tB / 2)
+
+    def set_offsets(self, psiA0, psiB0):
+        """Tooth offsets SfA, SfB, SbA, SbB and the pairings K_f, K_b (module docstring)."""
+        self._offsets(psiA0, psiB0)
+        self._pairings()
+
+    def _pairings(self):
+        g = self.g
+        pb = g.p_b
         # forward: delta = SfA + SfB - L - K_f p_b (at t = 0) = dte_start
         cf = self.SfA + self.SfB - g.L - self.dte0
         self.Kf = round(cf / pb)
@@ -532,7 +618,7 @@ class Result:
         for t, y, cb, ca in self.events:
             th = tr.T @ y[:tr.n]
             for mesh, b, a in zip(tr.meshes, cb.meshes, ca.meshes):
-                uA = mesh.g.rAb * th[mesh.A]
+                uA = mesh.g.rAb * (tr._rel(mesh, th)[0] if tr.general else th[mesh.A])
                 for flank, kb_, ka_, on_b, on_a in ((1, b.kf, a.kf, b.on_f, a.on_f),
                                                     (-1, b.kb, a.kb, b.on_b, a.on_b)):
                     sA = mesh.sA_f if flank == 1 else mesh.sA_b
@@ -567,6 +653,7 @@ class GearTrain:
     TOL_POS = G.GearMesh.TOL_POS
     TOL_REL = G.GearMesh.TOL_REL
     _side = G.GearMesh._side          # tie rule: the single reference's, unchanged
+    check_assembly = True             # False only for scene design (a mount angle search)
 
     def __init__(self, start_values: dict | None = None):
         self.p = p = make_train_params(start_values)
@@ -575,7 +662,9 @@ class GearTrain:
         self.nb, self.ns, self.nm = nb, ns, nm
         self.bodies = [Body(p[f"body[{i}].J"], p[f"body[{i}].c"], p[f"body[{i}].w_start"],
                             p[f"body[{i}].tau"], (p[f"body[{i}].tau_ripple"], p[f"body[{i}].ripple_order"],
-                                                  p[f"body[{i}].ripple_phase"]))
+                                                  p[f"body[{i}].ripple_phase"]),
+                            p[f"body[{i}].carrier"], p[f"body[{i}].orbit_angle"], p[f"body[{i}].m"],
+                            p[f"body[{i}].pin_error_r"], p[f"body[{i}].pin_error_t"])
                        for i in range(1, nb + 1)]
         # the angle-locked ripples in use: (body index, amplitude, order, phase)
         self.ripples = [(i, *b.ripple) for i, b in enumerate(self.bodies) if b.ripple[0] != 0.0]
@@ -584,27 +673,37 @@ class GearTrain:
                 raise ValueError(f"body[{i}].J = {b.J!r} must be > 0")
             if not b.c >= 0.0:
                 raise ValueError(f"body[{i}].c = {b.c!r} must be >= 0")
+        self.H = nb                           # the housing (body 0) as a 0-based index
         self.edges = self._edges()            # (name, a, b) 0-based, meshes first
-        self._check_topology()
+        # GENERAL mode (planetary.md sections 3-4): the housing named, a carrier, or a loop.
+        # Otherwise the tree code below runs exactly as before (bit-identical traces).
+        self.general = (any(self.H in (a, b) for _n, a, b in self.edges)
+                        or any(b.carrier != 0 for b in self.bodies) or _has_cycle(nb, self.edges))
+        if not self.general:
+            self._check_topology()
         self.shafts = []
         for j in range(1, ns + 1):
-            s = Shaft(j, p[f"shaft[{j}].a"] - 1, p[f"shaft[{j}].b"] - 1, p[f"shaft[{j}].k"],
-                      p[f"shaft[{j}].d"], p[f"shaft[{j}].twist_start"])
+            _nm_, sa, sb = self.edges[nm + j - 1]
+            s = Shaft(j, sa, sb, p[f"shaft[{j}].k"], p[f"shaft[{j}].d"], p[f"shaft[{j}].twist_start"])
             if not (s.k > 0.0 and math.isfinite(s.k)):
                 raise ValueError(f"shaft[{j}].k = {s.k!r} must be > 0")
             if not s.d >= 0.0:
                 raise ValueError(f"shaft[{j}].d = {s.d!r} must be >= 0")
             self.shafts.append(s)
         self.meshes = [self._make_mesh(m) for m in range(1, nm + 1)]
-        self._build_tree()
-        self._place()
+        self.J = np.array([b.J for b in self.bodies])
+        if self.general:
+            self._setup_general()
+        else:
+            self._build_tree()
+            self._place()
         self.n = nb                           # position coordinates: theta_1 + n_b - 1 edges
 
     # ---------------------------------------------------------------- validation
     @staticmethod
     def _check_counts(nb, ns, nm):
         bad = []
-        if not 1 <= nb <= CAPACITY["body"]:
+        if isinstance(nb, bool) or not 1 <= nb <= CAPACITY["body"]:
             bad.append(f"n_bodies = {nb} (1..{CAPACITY['body']})")
         if not 0 <= ns <= CAPACITY["shaft"]:
             bad.append(f"n_shafts = {ns} (0..{CAPACITY['shaft']})")
@@ -622,13 +721,17 @@ class GearTrain:
         bad = []
         for name, a, b, la, lb in out:
             for lab, v in ((la, a), (lb, b)):
-                if not 1 <= v <= self.nb:
-                    bad.append(f"{name}.{lab} = {v} is not a body index in 1..{self.nb}")
+                if not 0 <= v <= self.nb:
+                    bad.append(f"{name}.{lab} = {v} is not a body index in 0..{self.nb} "
+                               "(0 = the housing)")
             if a == b:
-                bad.append(f"{name} joins body[{a}] to itself ({name}.{la} = {name}.{lb} = {a})")
+                what = "the housing" if a == 0 else f"body[{a}]"
+                bad.append(f"{name} joins {what} to itself ({name}.{la} = {name}.{lb} = {a})")
         if bad:
             raise ValueError("invalid train topology: " + "; ".join(bad))
-        return [(name, a - 1, b - 1) for name, a, b, _la, _lb in out]
+        # 0-based body indices; the housing (0) becomes self.H = n_bodies
+        return [(name, (a - 1) if a else self.H, (b - 1) if b else self.H)
+                for name, a, b, _la, _lb in out]
 
     def _check_topology(self):
         """Tree: no cycle, every body connected to body 1.  Names the elements."""
@@ -657,9 +760,13 @@ class GearTrain:
         if problems:
             raise ValueError("the train is not a tree: " + "; ".join(problems))
 
-    def _make_mesh(self, m):
+    def _make_mesh(self, m, cde=None, beta=None):
+        """cde, beta: a mesh in a carrier's frame gets its centre distance error (relative to
+        its nominal distance) and direction from the planets' positions (_setup_general)."""
         p = self.p
         sv = {k: p[f"mesh[{m}].{k}"] for k in MESH_PAIR_KEYS}
+        if cde is not None:
+            sv["center_distance_error"] = cde
         mp = G.make_params(sv)
         cm = mp["contact_model"]
         if mp["internal"] and cm == 3:
@@ -674,11 +781,362 @@ class GearTrain:
         if cm != 1:
             raise ValueError(f"mesh[{m}].contact_model = {cm}: must be 1 or 3")
         try:
-            return TrainMesh(m, mp, p[f"mesh[{m}].A"] - 1, p[f"mesh[{m}].B"] - 1,
-                             p[f"mesh[{m}].center_angle"], p[f"mesh[{m}].mount_A"],
-                             p[f"mesh[{m}].mount_B"])
+            _nm_, A, B = self.edges[m - 1]
+            return TrainMesh(m, mp, A, B,
+                             p[f"mesh[{m}].center_angle"] if beta is None else beta,
+                             p[f"mesh[{m}].mount_A"], p[f"mesh[{m}].mount_B"])
         except G.GeometryError as e:
             raise G.GeometryError(f"mesh[{m}]: {e}") from None
+
+    # ---------------------------------------------------------------- general mode
+    # planetary.md sections 3-4 with the decisions agreed with the Rust side (module docstring,
+    # PLANETARY TRAINS).  Indices are 0-based; self.H = n_bodies is the housing (body 0).
+    def _body_name(self, i):
+        return "the housing (body 0)" if i == self.H else f"body[{i + 1}]"
+
+    def _setup_general(self):
+        nb, nm, H = self.nb, self.nm, self.H
+        bodies = self.bodies
+        # ---- carriers
+        bad = []
+        self.carrier_of = [None] * nb            # 0-based carrier of each planet
+        for i, b in enumerate(bodies):
+            c = b.carrier
+            if c == 0:
+                continue
+            if not 1 <= c <= nb:
+                bad.append(f"body[{i + 1}].carrier = {c} is not a body index in 0..{nb}")
+            elif c == i + 1:
+                bad.append(f"body[{i + 1}].carrier = {c}: a body cannot carry itself")
+            elif bodies[c - 1].carrier != 0:
+                bad.append(f"body[{i + 1}].carrier = {c}: body[{c}] is itself carried (by "
+                           f"body[{bodies[c - 1].carrier}]); a carrier turns about a housing-fixed axis")
+            else:
+                self.carrier_of[i] = c - 1
+        if bad:
+            raise ValueError("invalid train topology: " + "; ".join(bad))
+        self.carriers = sorted({c for c in self.carrier_of if c is not None})
+        planet = lambda i: i != H and self.carrier_of[i] is not None
+        # ---- each mesh's frame: the carrier of its planet(s), or the housing (None)
+        frames = []
+        for mesh in self.meshes:
+            A, B = mesh.A, mesh.B
+            cA = self.carrier_of[A] if planet(A) else None
+            cB = self.carrier_of[B] if planet(B) else None
+            if cA is not None and cB is not None and cA != cB:
+                bad.append(f"mesh[{mesh.m}] joins {self._body_name(A)} (a planet of body[{cA + 1}]) "
+                           f"to {self._body_name(B)} (a planet of body[{cB + 1}])")
+            c = cA if cA is not None else cB
+            for X in (A, B):
+                if c is not None and X == c:
+                    bad.append(f"mesh[{mesh.m}] joins a planet to its own carrier body[{c + 1}]")
+            if c is not None and self.p[f"mesh[{mesh.m}].center_angle"] != 0.0:
+                bad.append(f"mesh[{mesh.m}].center_angle = {self.p[f'mesh[{mesh.m}].center_angle']!r}: "
+                           f"a mesh in the frame of carrier body[{c + 1}] takes its direction from "
+                           "the planets' positions; center_angle must be 0")
+            frames.append(c)
+        meshed = {X for mesh in self.meshes for X in (mesh.A, mesh.B)}
+        for i in range(nb):
+            if planet(i) and i not in meshed:
+                bad.append(f"body[{i + 1}] is a planet of body[{self.carrier_of[i] + 1}] with no mesh")
+        if bad:
+            raise ValueError("invalid train topology: " + "; ".join(bad))
+        # ---- connectivity over meshes, shafts and carrier ties
+        housing_named = any(H in (a, b) for _n, a, b in self.edges)
+        adj = {i: set() for i in range(nb + 1)}
+        for _n, a, b in self.edges:
+            adj[a].add(b)
+            adj[b].add(a)
+        for i in range(nb):
+            if planet(i):
+                adj[i].add(self.carrier_of[i])
+                adj[self.carrier_of[i]].add(i)
+        root = H if housing_named else 0
+        seen, todo = {root}, deque([root])
+        while todo:
+            i = todo.popleft()
+            for j in adj[i]:
+                if j not in seen:
+                    seen.add(j)
+                    todo.append(j)
+        lost = [f"body[{i + 1}]" for i in range(nb) if i not in seen]
+        if lost:
+            raise ValueError("invalid train topology: " + ", ".join(lost) + " not connected to the "
+                             "rest by a mesh, a shaft or a carrier tie")
+        # ---- forward senses: walks over meshes and shafts, never through the housing
+        sig = [0] * nb
+        nbr = {i: [] for i in range(nb)}
+        for k, (name, a, b) in enumerate(self.edges):
+            if H in (a, b):
+                continue
+            keep = k >= nm or self.meshes[k].internal
+            nbr[a].append((b, keep, name))
+            nbr[b].append((a, keep, name))
+        up = [None] * nb                 # (parent body, edge name) of the walk
+
+        def chain(i):
+            out = [(i, None)]
+            while up[i] is not None:
+                i, nm_ = up[i]
+                out[-1] = (out[-1][0], nm_)
+                out.append((i, None))
+            return out
+        for start in range(nb):
+            if sig[start]:
+                continue
+            sig[start] = -1
+            todo = deque([start])
+            while todo:
+                i = todo.popleft()
+                for j, keep, name in nbr[i]:
+                    want = sig[i] if keep else -sig[i]
+                    if sig[j] == 0:
+                        sig[j] = want
+                        up[j] = (i, name)
+                        todo.append(j)
+                    elif sig[j] != want:
+                        ci, cj = chain(i), chain(j)
+                        common = {b for b, _ in ci} & {b for b, _ in cj}
+                        loop = ([e for b, e in ci if b not in common]
+                                + [e for b, e in cj if b not in common][::-1] + [name])
+                        raise ValueError(
+                            "invalid train topology: conflicting forward senses around the loop "
+                            "through " + ", ".join(loop) + " (an external mesh flips the sense, an "
+                            "internal mesh and a shaft keep it): the train cannot turn")
+        self.sigma = sig
+        for mesh, c in zip(self.meshes, frames):
+            if mesh.A == H:      # a fixed external gear: the sense the mesh gives from B
+                sA = sig[mesh.B] if mesh.internal else -sig[mesh.B]
+                sB = sig[mesh.B]
+            elif mesh.B == H:
+                sA = sig[mesh.A]
+                sB = sig[mesh.A] if mesh.internal else -sig[mesh.A]
+            else:
+                sA, sB = sig[mesh.A], sig[mesh.B]
+            mesh.sgA, mesh.sgB = sA, sB
+        for s_ in self.shafts:
+            s_.sg = sig[s_.b] if s_.a == H else sig[s_.a]
+            if H not in (s_.a, s_.b) and sig[s_.a] != sig[s_.b]:
+                raise RuntimeError(f"shaft[{s_.j}] joins bodies of opposite senses")
+        # ---- planets: orbit radius (nominal operating distance of the lowest-index mesh with
+        # a central member), positions in the carrier frame, meshes rebuilt at those distances
+        self.R = [0.0] * nb
+        for i in range(nb):
+            if not planet(i):
+                continue
+            for mesh in self.meshes:
+                if i in (mesh.A, mesh.B):
+                    other = mesh.B if i == mesh.A else mesh.A
+                    if not planet(other):
+                        self.R[i] = mesh.g.d_nominal
+                        break
+            else:
+                raise ValueError(f"invalid train topology: body[{i + 1}], a planet of "
+                                 f"body[{self.carrier_of[i] + 1}], meshes with no central member "
+                                 "(its orbit radius is undefined)")
+        for k, c in enumerate(frames):
+            mesh = self.meshes[k]
+            if c is None:
+                mesh.carrier = None
+                continue
+            A, B = mesh.A, mesh.B
+            if planet(A) and planet(B):
+                OA, OB = self.planet_position(A), self.planet_position(B)
+                dx, dy = OB[0] - OA[0], OB[1] - OA[1]
+                dist, beta = math.hypot(dx, dy), math.atan2(dy, dx)
+            else:
+                P = B if planet(B) else A
+                b = bodies[P]
+                rad = self.R[P] + b.pin_r
+                # polar form about the planet's own ray: exactly R with no pin error
+                dist = math.hypot(rad, b.pin_t)
+                beta = b.orbit + math.atan2(b.pin_t, rad) + (0.0 if P == B else math.pi)
+            cde_user = self.p[f"mesh[{mesh.m}].center_distance_error"]
+            cde = (dist - mesh.g.d_nominal) + cde_user
+            new = self._make_mesh(mesh.m, cde=cde, beta=beta)
+            new.sgA, new.sgB = mesh.sgA, mesh.sgB
+            new.carrier = c
+            new.dist_from_positions = dist
+            self.meshes[k] = new
+        for mesh in self.meshes:
+            mesh.s = -mesh.sgA                         # paper frame: mirrored when sigma_A = +1
+            if mesh.carrier is not None:
+                sc = sig[mesh.carrier]
+                mesh.kA, mesh.kB = mesh.sgA * sc, mesh.sgB * sc
+        # orbital inertia on the carriers
+        self.J_orbit = np.zeros(nb)
+        for i in range(nb):
+            if planet(i):
+                self.J_orbit[self.carrier_of[i]] += bodies[i].mass * self.R[i] ** 2
+        self.J = self.J + self.J_orbit
+        self._place_general(root)
+        self._coordinates_general()
+
+    def planet_position(self, i):
+        """Planet i's axis in its carrier's frame (planetary.md section 3)."""
+        b = self.bodies[i]
+        ph = b.orbit
+        rad = self.R[i] + b.pin_r
+        return (rad * math.cos(ph) - b.pin_t * math.sin(ph), rad * math.sin(ph) + b.pin_t * math.cos(ph))
+
+    def _place_general(self, root):
+        """Breadth-first placement (planetary.md section 4 with the agreed queue)."""
+        nb, nm, H = self.nb, self.nm, self.H
+        psi = [None] * (nb + 1)
+        psi[H] = 0.0
+        for c in self.carriers:
+            psi[c] = 0.0
+        if root == 0 and psi[0] is None:
+            psi[0] = self.p["body[1].angle_start"]
+        queue = deque([root] + [c for c in self.carriers if c != root])
+        placing = []                     # edge indices in placement order
+        self.parent = [None] * nb
+        while queue:
+            i = queue.popleft()
+            for k, mesh in enumerate(self.meshes):
+                if i not in (mesh.A, mesh.B):
+                    continue
+                j = mesh.B if i == mesh.A else mesh.A
+                if psi[j] is not None:
+                    continue
+                psi[j] = mesh.place_other(psi[i], known_is_A=(i == mesh.A))
+                self.parent[j] = (k, i)
+                placing.append(k)
+                queue.append(j)
+            for s_ in self.shafts:
+                if i not in (s_.a, s_.b):
+                    continue
+                j = s_.b if i == s_.a else s_.a
+                if psi[j] is not None:
+                    continue
+                tw = s_.twist0
+                psi[j] = psi[i] - s_.sg * tw if i == s_.a else psi[i] + s_.sg * tw
+                self.parent[j] = (nm + s_.j - 1, i)
+                placing.append(nm + s_.j - 1)
+                queue.append(j)
+        if any(v is None for v in psi):
+            raise RuntimeError("placement did not reach every body")
+        self.psi0 = psi[:nb]
+        self.placing = placing
+        placed_by = set(placing)
+        for s_ in self.shafts:       # a shaft closing a loop: its twist from the placed angles
+            if nm + s_.j - 1 not in placed_by:
+                s_.twist0 = s_.sg * (psi[s_.a] - psi[s_.b])
+        for k, mesh in enumerate(self.meshes):
+            if k in placed_by:
+                mesh.loop = False
+                mesh.set_offsets(psi[mesh.A], psi[mesh.B])
+            else:
+                mesh.loop = True
+                mesh.set_offsets_loop(psi[mesh.A], psi[mesh.B], self)
+
+    def _rel_row(self, X, k, c):
+        """Row over the bodies of theta_X relative to carrier c (k = sigma_X sigma_c)."""
+        row = np.zeros(self.nb)
+        if X != self.H:
+            row[X] = 1.0
+        if c is not None:
+            row[c] -= k
+        return row
+
+    def _coordinates_general(self):
+        """x = [theta of the free bodies (ascending index), coordinates of the independent
+        edges (index order: meshes, then shafts)]; theta = T x.  The placing edges are
+        independent (each brings in a new body); a loop edge becomes a coordinate only if it
+        raises the rank.  The other loop meshes' e = ce . x over edge coordinates only (their
+        coefficients on the free bodies vanish analytically and are set to 0), so every dte keeps
+        the precision of a few 1e-16 m however far the bodies turn (planetary.md section 4)."""
+        nb, nm, H = self.nb, self.nm, self.H
+        rows = []
+        for mesh in self.meshes:
+            c = mesh.carrier
+            kA = mesh.kA if c is not None else 0.0
+            kB = mesh.kB if c is not None else 0.0
+            mesh.rowA = self._rel_row(mesh.A, kA, c)
+            mesh.rowB = self._rel_row(mesh.B, kB, c)
+            rows.append(mesh.g.rAb * mesh.rowA - mesh.g.rBb * mesh.rowB)
+        for s_ in self.shafts:
+            r = np.zeros(nb)
+            if s_.a != H:
+                r[s_.a] += 1.0
+            if s_.b != H:
+                r[s_.b] -= 1.0
+            rows.append(r)
+        Eall = np.array(rows).reshape(len(rows), nb)
+        self.E_all = Eall
+        norm = lambda r: r / max(np.max(np.abs(r)), 1e-300)
+
+        def rank(M):
+            if len(M) == 0:
+                return 0
+            sv = np.linalg.svd(np.array([norm(r) for r in M]), compute_uv=False)
+            return int(np.sum(sv > 1e-9 * sv[0]))
+        indep = []
+        for k in self.placing:
+            if rank([Eall[q] for q in indep + [k]]) != len(indep) + 1:
+                raise RuntimeError(f"placing edge {self.edges[k][0]} is not independent")
+            indep.append(k)
+        for k in range(len(self.edges)):
+            if k not in indep and rank([Eall[q] for q in indep + [k]]) == len(indep) + 1:
+                indep.append(k)
+        indep.sort()
+        free = []
+        for i in range(nb):
+            cand = [Eall[q] for q in indep] + [np.eye(nb)[f] for f in free + [i]]
+            if rank(cand) == len(cand):
+                free.append(i)
+        if len(free) + len(indep) != nb:
+            raise RuntimeError("coordinates: no basis")
+        # jammed bodies: no rigid rolling motion of the meshes (shafts absent) turns them
+        if nm:
+            Em = np.array([norm(Eall[k]) for k in range(nm)])
+            _u, sv, vt = np.linalg.svd(Em)
+            r = int(np.sum(sv > 1e-9 * sv[0])) if len(sv) else 0
+            null = vt[r:]
+            jam = [f"body[{i + 1}]" for i in range(nb)
+                   if null.shape[0] == 0 or np.max(np.abs(null[:, i])) < 1e-9]
+            if jam:
+                raise ValueError("invalid train topology: jammed: no rigid rolling motion of the "
+                                 "meshes lets " + ", ".join(jam) + " turn")
+        self.free, self.indep = free, indep
+        E = np.zeros((nb, nb))
+        for r_, f in enumerate(free):
+            E[r_, f] = 1.0
+        col = {}
+        for r_, k in enumerate(indep):
+            E[len(free) + r_] = Eall[k]
+            col[k] = len(free) + r_
+        T = np.linalg.inv(E)
+        if not np.allclose(E @ T, np.eye(nb), rtol=0, atol=1e-9):
+            raise RuntimeError("coordinates: E T != I")
+        self.T, self.E = T, E
+        nf = len(free)
+        for k, mesh in enumerate(self.meshes):
+            mesh.cA = mesh.g.rAb * (mesh.rowA @ T)
+            mesh.cB = mesh.g.rBb * (mesh.rowB @ T)
+            if k in col:
+                mesh.ie = col[k]
+                mesh.ce = np.eye(nb)[col[k]]
+            else:
+                mesh.ie = None
+                ce = Eall[k] @ T
+                scale = mesh.g.rAb + mesh.g.rBb
+                if nf and np.max(np.abs(ce[:nf])) > 1e-9 * scale:
+                    raise RuntimeError(f"mesh[{mesh.m}]: loop coordinate depends on a free body")
+                ce[:nf] = 0.0
+                mesh.ce = ce
+        for s_ in self.shafts:
+            k = nm + s_.j - 1
+            s_.iq = col.get(k)
+            if s_.iq is None:        # a shaft closing a loop: q = cq . x
+                cq = Eall[k] @ T
+                if nf and np.max(np.abs(cq[:nf])) > 1e-9:
+                    raise RuntimeError(f"shaft[{s_.j}]: loop coordinate depends on a free body")
+                cq[:nf] = 0.0
+                s_.cq = cq
+            else:
+                s_.cq = np.eye(nb)[s_.iq]
+        self.order = list(range(nb))
 
     # ---------------------------------------------------------------- tree coordinates
     def _build_tree(self):
@@ -759,10 +1217,131 @@ class GearTrain:
         xd = self.E @ w
         return np.concatenate([np.zeros(self.n), xd, [0.0, 0.0]])
 
+    # ---------------------------------------------------------------- general-mode dynamics
+    def _e(self, mesh, x):
+        """The mesh coordinate e = rAb theta_A_rel - rBb theta_B_rel (dte = e + dte0)."""
+        return x[mesh.ie] if mesh.ie is not None else float(np.dot(mesh.ce, x))
+
+    def _q(self, s_, x):
+        return x[s_.iq] if s_.iq is not None else float(np.dot(s_.cq, x))
+
+    def _rel(self, mesh, v):
+        """(A, B) relative to the mesh's frame of a body vector v (angles, speeds or
+        accelerations; the housing's entry is 0)."""
+        A, B = mesh.A, mesh.B
+        va = v[A] if A != self.H else 0.0
+        vb = v[B] if B != self.H else 0.0
+        if mesh.carrier is not None:
+            vc = v[mesh.carrier]
+            va -= mesh.kA * vc
+            vb -= mesh.kB * vc
+        return va, vb
+
+    def _apply_mesh(self, Q, mesh, mA, mB):
+        """Adds the mesh's forward torques to its bodies and the carrier's reaction; returns the
+        absolute (counter-clockwise) torque on the housing."""
+        A, B, H = mesh.A, mesh.B, self.H
+        hous = 0.0
+        if A != H:
+            Q[A] += mA
+        else:
+            hous += mesh.sgA * mA
+        if B != H:
+            Q[B] += mB
+        else:
+            hous += mesh.sgB * mB
+        if mesh.carrier is not None:
+            c = mesh.carrier
+            Q[c] -= self.sigma[c] * (mesh.sgA * mA + mesh.sgB * mB)
+        return hous
+
+    def _drag(self, w):
+        """Drag torques (forward) and their power: a planet's drag acts on its speed relative to
+        its carrier, the carrier takes the reaction."""
+        Q = np.zeros(self.nb)
+        P = 0.0
+        for i, b in enumerate(self.bodies):
+            if b.c == 0.0:
+                continue
+            c = self.carrier_of[i]
+            if c is None:
+                Q[i] -= b.c * w[i]
+                P -= b.c * w[i] * w[i]
+            else:
+                k = self.sigma[i] * self.sigma[c]
+                wr = w[i] - k * w[c]
+                Q[i] -= b.c * wr
+                Q[c] += k * b.c * wr
+                P -= b.c * wr * wr
+        return Q, P
+
+    def _forces_general(self, x, xd, tau, kfkb, detail=False):
+        """Generalized forces (forward), power lost, housing torque."""
+        th, w = self.T @ x, self.T @ xd
+        tau = self.with_ripples(tau, th)
+        Qd, Pd = self._drag(w)
+        Q = tau + Qd
+        pl = 0.0
+        hous = 0.0
+        for mesh, (kf, kb) in zip(self.meshes, kfkb):
+            if kf or kb:
+                thA, _thB = self._rel(mesh, th)
+                wA, wB = self._rel(mesh, w)
+                e = self._e(mesh, x)
+                v = self._e(mesh, xd)
+                mA, mB, pp = mesh.torques(mesh.g.rAb * thA, e + mesh.dte0, wA, wB, v, kf, kb)
+                hous += self._apply_mesh(Q, mesh, mA, mB)
+                pl += pp
+        for s_ in self.shafts:
+            q, qd = self._q(s_, x), self._q(s_, xd)
+            ts = s_.k * (q + s_.twist0) + s_.d * qd
+            if s_.a != self.H:
+                Q[s_.a] -= ts
+            else:
+                hous -= s_.sg * ts
+            if s_.b != self.H:
+                Q[s_.b] += ts
+            else:
+                hous += s_.sg * ts
+            pl += s_.d * qd * qd
+        return Q, pl, w, tau, Pd, hous
+
+    def _make_rhs_general(self, cfg, seg):
+        n = self.n
+        E, J = self.E, self.J
+        t0, v0, dv = seg
+        kfkb = [(ms.kf, ms.kb) for ms in cfg.meshes]
+
+        def rhs(t, y):
+            x, xd = y[:n], y[n:2 * n]
+            Q, pl, w, tau, Pd, _h = self._forces_general(x, xd, v0 + dv * (t - t0), kfkb)
+            out = np.empty(2 * n + 2)
+            out[:n] = xd
+            out[n:2 * n] = E @ (Q / J)
+            out[2 * n] = float(np.dot(tau, w)) + Pd
+            out[2 * n + 1] = pl
+            return out
+        return rhs
+
+    def _mesh_kin_general(self, mesh, y, acc):
+        n = self.n
+        x, xd = y[:n], y[n:2 * n]
+        th, w = self.T @ x, self.T @ xd
+        g = mesh.g
+        thA, thB = self._rel(mesh, th)
+        wA, wB = self._rel(mesh, w)
+        aA, aB = self._rel(mesh, acc)
+        return dict(uA=g.rAb * thA, uB=g.rBb * thB, wA=wA, wB=wB, aA=aA, aB=aB,
+                    e=self._e(mesh, x) + mesh.dte0, v=self._e(mesh, xd), e2=g.rAb * aA - g.rBb * aB)
+
     # ---------------------------------------------------------------- dynamics
     def forces(self, t, y, cfg, tau):
         """Generalized torques on the bodies and the power lost, for fixed carrying sets."""
         n = self.n
+        if self.general:
+            Q, pl, w, _tau, _Pd, _h = self._forces_general(
+                y[:n], y[n:2 * n], tau, [(ms.kf, ms.kb) for ms in cfg.meshes])
+            return Q, pl, w
         x, xd = y[:n], y[n:2 * n]
         th, w = self.T @ x, self.T @ xd
         Q = self.with_ripples(tau, th) - np.array([b.c for b in self.bodies]) * w
@@ -791,6 +1370,8 @@ class GearTrain:
         return tau
 
     def make_rhs(self, cfg, seg):
+        if self.general:
+            return self._make_rhs_general(cfg, seg)
         n = self.n
         T, E = self.T, self.E
         J = np.array([b.J for b in self.bodies])
@@ -831,10 +1412,12 @@ class GearTrain:
 
     def accelerations(self, t, y, cfg, tau):
         Q, _pl, _w = self.forces(t, y, cfg, tau)
-        return Q / np.array([b.J for b in self.bodies])
+        return Q / self.J
 
     # ---------------------------------------------------------------- classification
     def _mesh_kin(self, mesh, y, acc):
+        if self.general:
+            return self._mesh_kin_general(mesh, y, acc)
         n = self.n
         x, xd = y[:n], y[n:2 * n]
         th, w = self.T @ x, self.T @ xd
@@ -960,11 +1543,17 @@ class GearTrain:
             ie, d0, jb = mesh.ie, mesh.dte0, g.backlash
             s, pb = ms.sig, g.p_b
             sdf = s["df"]
-            add(lambda t, yy, sdf=sdf, ie=ie, d0=d0: sdf * (yy[ie] + d0),
+            if ie is not None:
+                ef = lambda yy, ie=ie: yy[ie]
+                vf = lambda yy, iv=n + ie: yy[iv]
+            else:     # a loop mesh (general mode): e = ce . x over edge coordinates
+                ef = lambda yy, ce=mesh.ce: float(np.dot(ce, yy[:n]))
+                vf = lambda yy, ce=mesh.ce: float(np.dot(ce, yy[n:2 * n]))
+            add(lambda t, yy, sdf=sdf, ef=ef, d0=d0: sdf * (ef(yy) + d0),
                 sdf * k["e"], sdf * k["v"], sdf * k["e2"], self.TOL_DELTA, 1e-20)
             if mesh.bwd:
                 sdb = s["db"]
-                add(lambda t, yy, sdb=sdb, ie=ie, d0=d0, jb=jb: sdb * (-jb - yy[ie] - d0),
+                add(lambda t, yy, sdb=sdb, ef=ef, d0=d0, jb=jb: sdb * (-jb - ef(yy) - d0),
                     sdb * (-jb - k["e"]), -sdb * k["v"], -sdb * k["e2"], self.TOL_DELTA, 1e-20)
             tipB = g.L - g.s_a
             rAb, rBb = g.rAb, g.rBb
@@ -975,8 +1564,8 @@ class GearTrain:
                 add_periodic(pb, s["lf"], -mesh.cB, mesh.SfB - tipB,
                              mesh.sB_f(k["uB"], -mesh.Kf) - tipB, -rBb * k["wB"], -rBb * k["aB"])
                 if mesh.chi > 0.0:
-                    srf, chi, iv = s["rf"], mesh.chi, n + ie
-                    add(lambda t, yy, srf=srf, chi=chi, iv=iv: srf * (1.0 + chi * yy[iv]),
+                    srf, chi = s["rf"], mesh.chi
+                    add(lambda t, yy, srf=srf, chi=chi, vf=vf: srf * (1.0 + chi * vf(yy)),
                         srf * (1.0 + chi * k["v"]), srf * chi * k["e2"], 0.0, self.TOL_REL, 1e-14)
             if ms.on_b:
                 add_periodic(pb, s["ub"], -mesh.cA, mesh.SbA - g.s_b,
@@ -984,11 +1573,16 @@ class GearTrain:
                 add_periodic(pb, s["lb"], mesh.cB, mesh.SbB - tipB,
                              mesh.sB_b(k["uB"], -mesh.Kb) - tipB, rBb * k["wB"], rBb * k["aB"])
                 if mesh.chi > 0.0:
-                    srb, chi, iv = s["rb"], mesh.chi, n + ie
-                    add(lambda t, yy, srb=srb, chi=chi, iv=iv: srb * (1.0 - chi * yy[iv]),
+                    srb, chi = s["rb"], mesh.chi
+                    add(lambda t, yy, srb=srb, chi=chi, vf=vf: srb * (1.0 - chi * vf(yy)),
                         srb * (1.0 - chi * k["v"]), -srb * chi * k["e2"], 0.0, self.TOL_REL, 1e-14)
-            guards.append(lambda t, yy, iv=n + ie: yy[iv])      # extrema of delta
-            body_guard.update((mesh.A, mesh.B))
+            guards.append(lambda t, yy, vf=vf: vf(yy))          # extrema of delta
+            if self.general:     # reversals of the gate coordinates (relative speeds)
+                for c_ in (mesh.cA, mesh.cB):
+                    if np.any(c_ != 0.0):
+                        guards.append(lambda t, yy, row=c_: float(np.dot(row, yy[n:2 * n])))
+            else:
+                body_guard.update((mesh.A, mesh.B))
         for i in sorted(body_guard):                          # reversals of gate coordinates
             row = self.T[i]
             guards.append(lambda t, yy, row=row: float(np.dot(row, yy[n:2 * n])))
@@ -1040,11 +1634,17 @@ class GearTrain:
         tmax = max(1.0, float(np.sum(inputs.max_abs())))
         pos = np.ones(n)
         for mesh in self.meshes:
-            pos[mesh.ie] = self.delta_scale(mesh, inputs)
+            if mesh.ie is not None:
+                pos[mesh.ie] = self.delta_scale(mesh, inputs)
         for s in self.shafts:
-            pos[s.iq] = max(tmax / s.k, abs(s.twist0), 1e-12)
+            if s.iq is not None:
+                pos[s.iq] = max(tmax / s.k, abs(s.twist0), 1e-12)
         vel = pos * 1e4
-        vel[0] = wscale
+        if self.general:
+            for r_ in range(len(self.free)):
+                vel[r_] = wscale
+        else:
+            vel[0] = wscale
         return np.concatenate([pos, vel, [1.0, 1.0]]) * rtol
 
     def max_step(self, cfg, y, span):
@@ -1055,6 +1655,13 @@ class GearTrain:
         h = math.inf
         for mesh in self.meshes:
             g = mesh.g
+            if self.general:
+                wA, wB = self._rel(mesh, w)
+                aA, aB = self._rel(mesh, acc)
+                vline = (max(abs(g.rAb * wA), abs(g.rBb * wB))
+                         + max(abs(g.rAb * aA), abs(g.rBb * aB)) * span)
+                h = min(h, g.p_b / (8.0 * vline + 1e-300))
+                continue
             vline = (max(abs(g.rAb * w[mesh.A]), abs(g.rBb * w[mesh.B]))
                      + max(abs(g.rAb * acc[mesh.A]), abs(g.rBb * acc[mesh.B])) * span)
             h = min(h, g.p_b / (8.0 * vline + 1e-300))
@@ -1125,19 +1732,56 @@ class GearTrain:
         for m in range(1, self.nm + 1):
             names += [f"mesh[{m}].{v}" for v in ("dte", "F_fwd", "F_bwd", "n_fwd", "n_bwd", "F_f1",
                                                  "F_f2", "F_b1", "F_b2", "P_loss")]
+        if self.general:
+            names.append("housing.tau")
         return names + ["E_kin", "E_el", "E_gate", "W_ext", "W_loss", "energy_residual"]
 
     def elastic_energy(self, y, cfg):
         n = self.n
         U = 0.0
         for mesh, ms in zip(self.meshes, cfg.meshes):
-            U += mesh.elastic_energy(y[mesh.ie] + mesh.dte0, ms)
+            U += mesh.elastic_energy(self._e(mesh, y[:n]) + mesh.dte0, ms)
         for s in self.shafts:
-            U += 0.5 * s.k * (y[s.iq] + s.twist0) ** 2
+            U += 0.5 * s.k * (self._q(s, y[:n]) + s.twist0) ** 2
         return U
+
+    def _outputs_general(self, t, y, cfg, e_gate):
+        n = self.n
+        x, xd = y[:n], y[n:2 * n]
+        th, w = self.T @ x, self.T @ xd
+        row = [t]
+        for i in range(self.nb):
+            row += [th[i], w[i]]
+        hous = 0.0
+        for s in self.shafts:
+            ts = s.k * (self._q(s, x) + s.twist0) + s.d * self._q(s, xd)
+            row.append(ts)
+            if s.a == self.H:
+                hous -= s.sg * ts
+            if s.b == self.H:
+                hous += s.sg * ts
+        for mesh, ms in zip(self.meshes, cfg.meshes):
+            dte = self._e(mesh, x) + mesh.dte0
+            thA, _thB = self._rel(mesh, th)
+            wA, wB = self._rel(mesh, w)
+            mA, mB, pl, forces = mesh.torques(mesh.g.rAb * thA, dte, wA, wB, self._e(mesh, xd),
+                                              ms.kf, ms.kb, detail=True)
+            hous += self._apply_mesh(np.zeros(self.nb + 1), mesh, mA, mB)
+            F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
+            for flank, nA, Fn in forces:
+                F[mesh.object_name(flank, nA)] += max(Fn, 0.0)
+            row += [dte, F["f1"] + F["f2"], F["b1"] + F["b2"], len(ms.kf), len(ms.kb),
+                    F["f1"], F["f2"], F["b1"], F["b2"], pl]
+        row.append(hous)
+        E_kin = 0.5 * float(np.sum(self.J * w * w))
+        E_el = self.elastic_energy(y, cfg)
+        row += [E_kin, E_el, e_gate, y[2 * n], y[2 * n + 1]]
+        return row
 
     def outputs(self, t, y, cfg, e_gate):
         """One output row (without energy_residual, added in _sample)."""
+        if self.general:
+            return self._outputs_general(t, y, cfg, e_gate)
         n = self.n
         x, xd = y[:n], y[n:2 * n]
         th, w = self.T @ x, self.T @ xd
@@ -1196,6 +1840,23 @@ class GearTrain:
                - table[:, ci["W_ext"]] - table[:, ci["E_gate"]])
         table = np.column_stack([table, bal - bal[0]])
         return Result(names, table, merged, n_restart, n_missed, n_hidden, train=self)
+
+
+def _has_cycle(nb, edges):
+    """Whether the meshes and shafts (edges over bodies 0..nb, nb = the housing) close a loop."""
+    parent = list(range(nb + 1))
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    for _name, a, b in edges:
+        ra, rb = find(a), find(b)
+        if ra == rb:
+            return True
+        parent[ra] = rb
+    return False
 
 
 def _tree_path(adj, a, b):
@@ -1274,14 +1935,16 @@ def static_delta(mesh: TrainMesh, F: float, n_pairs: int) -> float:
     return d
 
 
-def quasi_static_start(start_values: dict, max_iter: int = 8) -> dict:
+def quasi_static_start(start_values: dict, max_iter: int = 8, mount_groups=()) -> dict:
     """Start values for a start without the large first transient: every body at the rigid
     speed r_i * body[1].w_start, every mesh at the penetration and every shaft at the twist that
     carry the rigid train's loads at t = 0 (constant torques body[i].tau).  The number of
     carrying pairs of each mesh depends on the placement, which depends on dte_start and
     twist_start: iterate until the counts repeat.  Returns a new start-value dict."""
     sv = dict(start_values)
-    tr = GearTrain(sv)
+    tr = _unchecked_train(sv) if mount_groups else GearTrain(sv)
+    if tr.general:
+        return _quasi_static_general(sv, mount_groups)
     w1 = tr.bodies[0].w0
     r = rigid_ratios(tr)
     for i in range(tr.nb):
@@ -1309,6 +1972,129 @@ def quasi_static_start(start_values: dict, max_iter: int = 8) -> dict:
             return sv
         counts = new
     raise RuntimeError(f"quasi_static_start: pair counts do not settle ({counts})")
+
+
+def _unchecked_train(sv):
+    GearTrain.check_assembly = False
+    try:
+        return GearTrain(sv)
+    finally:
+        GearTrain.check_assembly = True
+
+
+def rigid_kernel(train: GearTrain) -> np.ndarray:
+    """General mode: the rigid motions (every mesh rolling, every shaft rigid) as the columns
+    of K (n_bodies x f), normalised so that K restricted to the free bodies is the identity:
+    w = K w_free."""
+    nb, f = train.nb, len(train.free)
+    if f == 0:
+        return np.zeros((nb, 0))
+    E = train.E
+    # x = E theta: a rigid motion keeps every edge coordinate, so x = [w_free, 0]
+    K = train.T[:, :f].copy()
+    assert np.allclose(E[f:] @ K, 0.0, atol=1e-12)
+    return K
+
+
+def _quasi_static_general(start_values: dict, mount_groups=()) -> dict:
+    """quasi_static_start for a train with the housing, carriers or loops (general mode).
+
+    Speeds: the rigid motion through the free bodies' w_start (train.free: the bodies whose
+    angles are state coordinates).  Loads: a loop makes the rigid train statically
+    indeterminate, so the start is found on the compliant train itself: the dte_start of every
+    placing mesh and the twist_start of every placing shaft (the placement's spanning tree) are
+    solved so that at t = 0 every edge coordinate has zero acceleration: the train then starts
+    accelerating as a rigid body (constant torques body[i].tau).  The loop meshes' start
+    penetrations follow from the placement (planetary.md section 4), so the solve sees the
+    actual load sharing (a pin error included).  scipy's hybrid Powell method on the
+    unknowns scaled by one pair's Johnson penetration (meshes) or the rigid twist (shafts).
+
+    mount_groups: lists of mount parameters of one gear (e.g. a sun's mount_A in each of its
+    meshes), each group one more unknown, for a train where a loop mesh is independent of the
+    placing edges (a carrier coupled to another set's sun: its start angle 0 and the shaft fix
+    the sun, so the sun's tooth position on its body is what lets the set assemble unloaded)."""
+    from scipy.optimize import root
+    sv = dict(start_values)
+    tr = _unchecked_train(sv)
+    nb, f = tr.nb, len(tr.free)
+    K = rigid_kernel(tr)
+    w_free = np.array([tr.bodies[i].w0 for i in tr.free])
+    w = K @ w_free if f else np.zeros(nb)
+    for i in range(nb):
+        sv[f"body[{i + 1}].w_start"] = float(w[i])
+    tr = _unchecked_train(sv)
+    if len(tr.placing) + len(mount_groups) != len(tr.indep):
+        raise NotImplementedError(
+            f"quasi_static_start: {len(tr.indep)} independent edges, {len(tr.placing)} placing "
+            f"edges and {len(mount_groups)} mount groups: give one mount group per loop edge "
+            "independent of the placing edges")
+    tau = np.array([b.tau for b in tr.bodies])
+    # first guess: the rigid train's minimum-norm edge loads
+    Qd, _P = tr._drag(w)
+    Eall = tr.E_all
+    M = np.hstack([(tr.J[:, None] * K), Eall.T])
+    sol = np.linalg.lstsq(M, tau + Qd, rcond=None)[0]
+    lam = sol[f:]
+    keys, u0, scale = [], [], []
+    for k in tr.placing:
+        if k < tr.nm:
+            mesh = tr.meshes[k]
+            F = lam[k]
+            d = (static_delta(mesh, F, 1) if F > 0 else
+                 (-mesh.g.backlash - static_delta(mesh, -F, 1) if F < 0 else 0.0))
+            keys.append(f"mesh[{mesh.m}].dte_start")
+            u0.append(d)
+            scale.append(max(abs(d), 1e-7))
+        else:
+            s_ = tr.shafts[k - tr.nm]
+            keys.append(f"shaft[{s_.j}].twist_start")
+            u0.append(lam[k] / s_.k)
+            scale.append(max(abs(lam[k] / s_.k), 1e-9))
+    for grp in mount_groups:
+        keys.append(tuple(grp))
+        u0.append(float(sv.get(grp[0], 0.0)))
+        scale.append(1e-4)
+    u0, scale = np.array(u0), np.array(scale)
+
+    def build(z, check=True):
+        sv2 = dict(sv)
+        for key, v in zip(keys, u0 + scale * z):
+            for kk in (key if isinstance(key, tuple) else (key,)):
+                sv2[kk] = float(v)
+        GearTrain.check_assembly = check
+        try:
+            return sv2, GearTrain(sv2)
+        finally:
+            GearTrain.check_assembly = True
+    if mount_groups:
+        # first guess of each mount: turn the gear so that the loop meshes it closes start
+        # near the first-guess penetration of their placing siblings (secant on delta0)
+        nz = len(keys) - len(mount_groups)
+        for gi, grp in enumerate(mount_groups):
+            idx = nz + gi
+            ms = [int(_NAME.match(k).group(2)) for k in grp]
+            target = float(np.mean([d for k, d in zip(keys[:nz], u0[:nz]) if "dte_start" in k]))
+            for _ in range(4):
+                z = np.zeros(len(keys))
+                d0 = build(z, check=False)[1].meshes[ms[0] - 1].dte0
+                z[idx] = 1.0
+                d1 = build(z, check=False)[1].meshes[ms[0] - 1].dte0
+                u0[idx] += scale[idx] * (target - d0) / (d1 - d0)
+
+    def resid(z):
+        _sv2, t2 = build(z)
+        y = t2.initial_state()
+        cfg = t2.classify(0.0, y, tau)
+        acc = t2.accelerations(0.0, y, cfg, tau)
+        xdd = t2.E @ acc
+        return xdd[f:] / (scale * 1e6)       # edge accelerations in units of scale per (1 ms)^2
+    r = root(resid, np.zeros(len(u0)), method="hybr", options={"xtol": 1e-14})
+    res = resid(r.x)
+    if not np.all(np.abs(res) < 1e-6):
+        raise RuntimeError(f"quasi_static_start: no static state found ({r.message}; residual "
+                           f"{np.max(np.abs(res))!r})")
+    sv2, _t2 = build(r.x)
+    return sv2
 
 
 # --------------------------------------------------------------------------------------------
