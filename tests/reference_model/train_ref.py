@@ -2239,11 +2239,13 @@ def statistics(names, table, output_interval, train: GearTrain):
                 if last and sd != last:
                     switches += 1
                 last = sd
-        thA = col(f"body[{mesh.A + 1}].theta")
+        thA, _thB = _rel_columns(train, mesh, col, "theta")
         cycles = mesh.g.zA * abs(thA[-1] - thA[0]) / (2 * math.pi)
         per = (lambda k: k / cycles) if cycles > 0 else (lambda k: float("nan"))
-        out[pre + "mean_ratio"] = float(np.mean(col(f"body[{mesh.A + 1}].w"))
-                                        / np.mean(col(f"body[{mesh.B + 1}].w")))
+        wA, wB = _rel_columns(train, mesh, col, "w")
+        # speeds relative to the mesh's frame (a carrier's) in general mode; a fixed gear: nan
+        mwB = float(np.mean(wB))
+        out[pre + "mean_ratio"] = float(np.mean(wA)) / mwB if mwB != 0.0 else float("nan")
         out[pre + "rms_dte"] = float(np.sqrt(np.mean(dte ** 2)))
         out[pre + "max_dte"] = float(np.max(dte))
         out[pre + "min_dte"] = float(np.min(dte))
@@ -2257,5 +2259,18 @@ def statistics(names, table, output_interval, train: GearTrain):
 def mesh_cycles(names, table, output_interval, train, m):
     r = G.grid_rows(names, table, output_interval)
     mesh = train.meshes[m - 1]
-    thA = r[:, names.index(f"body[{mesh.A + 1}].theta")]
+    thA, _thB = _rel_columns(train, mesh, lambda nm: r[:, names.index(nm)], "theta")
     return mesh.g.zA * abs(thA[-1] - thA[0]) / (2 * math.pi)
+
+
+def _rel_columns(train, mesh, col, what):
+    """Columns body[A].<what>, body[B].<what> (theta or w), relative to the mesh's carrier in
+    general mode; a housing end reads 0."""
+    def body(i):
+        return col(f"body[{i + 1}].{what}") if i != getattr(train, "H", None) else 0.0
+    a, b = body(mesh.A), body(mesh.B)
+    if getattr(train, "general", False) and mesh.carrier is not None:
+        c = body(mesh.carrier)
+        a = a - mesh.kA * c
+        b = b - mesh.kB * c
+    return np.asarray(a, dtype=float) * np.ones(1), np.asarray(b, dtype=float) * np.ones(1)
