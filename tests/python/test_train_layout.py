@@ -469,13 +469,17 @@ def test_planetary_walk_agrees_with_the_reference(scene):
 
 
 @pytest.mark.parametrize("change, pattern", [
-    ({"mesh[1].A": 0}, r"body 2, body 3, body 4, body 5 jammed"),   # sun and ring both fixed
+    ({"mesh[1].A": 0}, r"body 1, body 2, body 3, body 4, body 5 jammed"),   # sun and ring fixed
     ({"body[2].carrier": 3}, r"body\[2\]\.carrier = 3: body 3 is itself carried"),
     ({"mesh[2].center_angle": 0.1}, r"mesh\[2\]\.center_angle = 0\.1: a mesh in the frame of "
                                      r"carrier body 2"),
     ({"mesh[1].A": 2}, r"mesh\[1\] joins a planet to its own carrier, body 2"),
     ({"mesh[1].B": 2}, r"the axes do not close: .*body 2's axis"),   # sun-carrier: housing frame
     ({"body[3].carrier": 17}, r"body\[3\]\.carrier = 17 is not a body"),
+    # planets at 0, 2, 4 rad: (21 + 57) 2 / (2 pi) is no integer (the reference's placement)
+    ({"body[4].orbit_angle": 2.0, "body[5].orbit_angle": 4.0},
+     r"placement .*mesh\[2\] closes a loop and cannot be assembled as placed.*assembly "
+     r"condition"),
 ])
 def test_planetary_refusals_name_the_elements(change, pattern):
     with pytest.raises(ValueError, match=pattern):
