@@ -10,15 +10,33 @@ circle with its tip and base circles, and each mesh's forward line of action K_A
 contact segment a-b, computed in the mesh's paper frame (gear-mesh-model.md section 2, through
 the reference model's `Geometry`) and mapped back to the housing frame (spec section 3).
 
+Planetary sets (/work/shared/spec/planetary.md sections 1, 3-4): the housing is body 0 (a mesh
+or shaft end 0: a fixed gear, a torsional mount), `body[i].carrier` puts a planet's axis at
+`body[i].orbit_angle` about its carrier's (carriers at psi = 0) at the orbit radius R (the
+nominal operating centre distance of its lowest-index mesh with a central member) moved by its
+pin errors, and a mesh in a carrier's frame takes its distance and direction from the positions.
+Loops are allowed; the breadth-first placing walk (from the housing if named, else body 1; queue
+[root, carriers]) says which mesh places which body and which close loops. A ring is drawn as an
+internal gear (tip circle inside the pitch circle, its body outside, hatched when the housing
+holds it), a carrier as arms to its planets' pins, an internal mesh's line of action in section
+1's frame (O_B at (-d, 0), rotated by beta + pi, mirrored when sigma_A = +1). Refused as the FMU
+refuses them: conflicting senses around a loop, a jammed body, axes that do not close (1 um), a
+carried carrier, a planet meshing with its own carrier, ...; body 1's placed start angle and the
+assembly check come from the reference's placement (tests/reference_model/train_ref.py).
+
     .venv/bin/python tools/train_layout.py layout [--set name=value ...] \\
         [--scene scenes/train/X.toml] -o out/train-layout.png
-    .venv/bin/python tools/train_layout.py run results.csv -o out/train-run.png
+    .venv/bin/python tools/train_layout.py run results.csv [--scene scenes/train/X.toml] \\
+        -o out/train-run.png
 
 Quote --set arguments in the shell ('mesh[2].zA=33'): brackets are glob characters. A scene is a
 TOML file with a [start_values] table of FMI names, quoted there too ("mesh[2].zA" = 33).
 
 `run` plots a CSV written by `fmpy simulate` (first column `time`, columns named by FMI name):
-per mesh dte [um] and the flank forces, then the body speeds and the shaft torques.
+per mesh dte [um] and the flank forces, then the body speeds and the shaft torques. With the
+run's scene (--scene / --set) of a planetary train: the meshes grouped per carrier (sun-planet,
+planet-ring), the planets' load sharing (each mesh's F_fwd over the mean over the planets), the
+speeds and housing.tau.
 
 From Python: `layout(params) -> dict`, `draw_layout(params, path)`, `plot_run(csv_path, out_png)`.
 """
