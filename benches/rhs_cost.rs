@@ -145,6 +145,7 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
             c: if i == n { 2.0 } else { 0.0 },
             w_start: 100.0 / 1.5f64.powi(i as i32),
             ripple: Ripple::NONE,
+            planet: None,
         })
         .collect();
     let meshes = (0..n)
@@ -170,7 +171,8 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
     let states = (0..64)
         .map(|k| {
             let mut y = y0;
-            y[train::THETA_1] += k as f64 / 64.0 * g.p_b / g.r_ab;
+            // Coordinate 0 is body 1's angle.
+            y[train::coord_index(0)] += k as f64 / 64.0 * g.p_b / g.r_ab;
             y
         })
         .collect();
@@ -178,7 +180,7 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
 }
 
 fn time_train(t: &Train, states: &[train::State], reps: usize) -> f64 {
-    let mut dy = [0.0; train::NY];
+    let mut dy = <train::State as spur_gear_mesh::driver::Vector>::zeros();
     let start = Instant::now();
     for _ in 0..reps {
         for y in states {

@@ -48,7 +48,7 @@
 //! must be an object's contact point modulo the base pitch (objects jump only at events).
 
 use spur_gear_mesh::model::geometry::Geometry;
-use spur_gear_mesh::model::train::{edge_index, Body, MeshPlace, Ripple, State, Train, TrainSpec};
+use spur_gear_mesh::model::train::{coord_index, Body, MeshPlace, Ripple, State, Train, TrainSpec};
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
 
@@ -432,6 +432,7 @@ fn random_config(rng: &mut Rng, internal: bool, n: usize) -> Result<Config, Stri
         c: 0.0,
         w_start: 0.0,
         ripple: Ripple::NONE,
+        planet: None,
     };
     Ok(Config {
         label,
@@ -724,14 +725,11 @@ fn run(internal: bool, seed: u64) -> Summary {
         // kinematics. B's forward sense: counter-clockwise for an external mesh, clockwise (as
         // body 1's) for an internal one.
         let mut y = y0;
-        y[0] = turn;
+        // Coordinate 0 is body 1's angle, coordinate 1 the mesh's dte.
+        y[coord_index(0)] = turn;
         let dte = -g.j_n + dte_frac * (g.j_n + 1e-6);
-        y[edge_index(0)] = dte;
-        assert_eq!(
-            train.dte(0, &y),
-            dte,
-            "the mesh's dte is edge 0's coordinate"
-        );
+        y[coord_index(1)] = dte;
+        assert_eq!(train.dte(0, &y), dte, "the mesh's dte is coordinate 1");
         let bodies = train.bodies(&y);
         let sense_b = if internal { -1.0 } else { 1.0 };
         let psi = [

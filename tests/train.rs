@@ -45,12 +45,14 @@ fn one_mesh_train_mounted(p: &Params, mount_b: f64) -> TrainSpec {
                 c: 0.0,
                 w_start: p.w_A_start,
                 ripple: Ripple::NONE,
+                planet: None,
             },
             Body {
                 j: p.J_B,
                 c: p.c_load,
                 w_start: p.w_B_start,
                 ripple: Ripple::NONE,
+                planet: None,
             },
         ],
         angle_start: single_mesh_angle(p),
@@ -75,7 +77,7 @@ fn the_train_places_the_teeth_where_the_single_mesh_starts_them() {
     let p = damped();
     let g = Geometry::new(&p).unwrap();
     let shifted = one_mesh_train(&p);
-    let start = placement::place(&shifted, &shifted.tree().unwrap(), std::slice::from_ref(&g));
+    let start = placement::start_of(&shifted).unwrap();
     match start.meshes[0] {
         Placement::Teeth { b_fwd, b_bwd, .. } => {
             assert_eq!(b_fwd - b_bwd, 1, "b1 holds B's tooth before f1's");
@@ -84,8 +86,7 @@ fn the_train_places_the_teeth_where_the_single_mesh_starts_them() {
         other => panic!("{other:?}"),
     }
     let spec = one_mesh_train_mounted(&p, std::f64::consts::PI);
-    let tree = spec.tree().unwrap();
-    let start = placement::place(&spec, &tree, std::slice::from_ref(&g));
+    let start = placement::start_of(&spec).unwrap();
     // f1 holds A0/B0 and b1 A1/B0 in the single mesh (contact.rs, `teeth`).
     match start.meshes[0] {
         Placement::Teeth { b_fwd, b_bwd, .. } => assert_eq!((b_fwd, b_bwd), (0, -1)),
@@ -163,7 +164,7 @@ fn one_mesh_and_two_bodies_is_the_single_mesh() {
         ..Inputs::default()
     };
     let (rig, yr) = spur_gear_mesh::model::PaperRig::new(&p, &i).unwrap();
-    let (mut dy, mut dyr) = ([0.0; 18], [0.0; 9]);
+    let (mut dy, mut dyr) = (<State as spur_gear_mesh::driver::Vector>::zeros(), [0.0; 9]);
     train.rhs(&y, &mut dy).unwrap();
     rig.rhs(&yr, &mut dyr).unwrap();
     // [w, dw, dte rate, d(dte rate)] of body 1 / wheel A.
@@ -175,7 +176,8 @@ fn one_mesh_and_two_bodies_is_the_single_mesh() {
         1.0,
         g.r_ab * dyr[2].abs() + g.r_bb * acc_b.abs(),
     ];
-    for (k, (a, b)) in [dy[0], dy[1], dy[4], dy[5]]
+    // The train's state: the quadratures, then body 1's angle and speed, the mesh's dte and rate.
+    for (k, (a, b)) in [dy[2], dy[3], dy[4], dy[5]]
         .into_iter()
         .zip([dyr[0], dyr[2], dyr[1], dyr[3]])
         .enumerate()
@@ -206,6 +208,7 @@ fn reducer(shaft_k: f64) -> TrainSpec {
         c,
         w_start: w,
         ripple: Ripple::NONE,
+        planet: None,
     };
     let stage = |a: usize, b: usize| MeshPlace {
         a,
@@ -319,9 +322,9 @@ fn a_stiff_shaft_tends_to_one_body() {
     assert!(last <= 1e-3 * w_limit, "{last} vs {w_limit}");
 }
 
-/// Rigid contact, a slider and a broken tree are refused with the elements named.
+/// Rigid contact, a slider and a broken train are refused with the elements named.
 #[test]
-fn rigid_contact_and_broken_trees_are_refused() {
+fn rigid_contact_and_broken_trains_are_refused() {
     let mut spec = reducer(1e5);
     spec.meshes[1].params.contact_model = 2;
     let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
@@ -337,9 +340,10 @@ fn rigid_contact_and_broken_trees_are_refused() {
         "{e}"
     );
     let mut spec = reducer(1e5);
+    // Mesh 2 from body 3 back to body 1 closes a loop and leaves body 4 alone.
     spec.meshes[1].b = 0;
     let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
-    assert!(e.contains("cycle"), "{e}");
+    assert!(e.contains("body[4] joined to body[1] by no chain"), "{e}");
     let mut spec = reducer(1e5);
     spec.meshes[0].params.zA = 23;
     let e = Train::new(spec, vec![0.0; 4], None).unwrap_err().message;
@@ -423,6 +427,7 @@ fn a_ripple_on_a_lone_body_does_the_work_of_its_closed_form() {
             c: 0.0,
             w_start: w0,
             ripple,
+            planet: None,
         }],
         angle_start: 0.0,
         shafts: vec![],

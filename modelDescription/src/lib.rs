@@ -541,14 +541,8 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
         put(Event::End(BytesEnd::new("Derivatives")));
     }
     put(Event::Start(BytesStart::new("InitialUnknowns")));
-    // Outputs, calculated parameters, and (Model Exchange) the states and their derivatives,
-    // which are the only locals.
-    let initial = |v: &Var| {
-        matches!(
-            v.causality.as_str(),
-            "output" | "calculatedParameter" | "local"
-        )
-    };
+    // Outputs, calculated parameters, and (Model Exchange) the states and their derivatives.
+    let initial = |v: &Var| initial_unknown(t, v);
     for i in indices(t, initial) {
         put(Event::Empty(elem("Unknown", &[("index", i.to_string())])));
     }
@@ -558,6 +552,21 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
     let mut xml = String::from_utf8(w.into_inner()).expect("quick-xml writes UTF-8");
     xml.push('\n');
     xml
+}
+
+/// An initial unknown: an output, a calculated parameter, a state or a derivative (other
+/// locals are not).
+fn initial_unknown(t: &Table, v: &Var) -> bool {
+    match v.causality.as_str() {
+        "output" | "calculatedParameter" => true,
+        "local" => {
+            v.derivative_of.is_some()
+                || t.vars
+                    .iter()
+                    .any(|d| d.derivative_of.as_deref() == Some(v.name.as_str()))
+        }
+        _ => false,
+    }
 }
 
 /// The FMI 3.0 type of a table type.
@@ -666,12 +675,7 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
     unknowns(&mut put, "ContinuousStateDerivative", &|v| {
         v.derivative_of.is_some()
     });
-    unknowns(&mut put, "InitialUnknown", &|v| {
-        matches!(
-            v.causality.as_str(),
-            "output" | "calculatedParameter" | "local"
-        )
-    });
+    unknowns(&mut put, "InitialUnknown", &|v| initial_unknown(t, v));
     for k in 0..indicators.len() {
         let vr = indicator_vr0 + k as u32;
         put(Event::Empty(elem(

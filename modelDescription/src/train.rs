@@ -208,7 +208,7 @@ mod tests {
             "mesh[1].J_A",
             "mesh[1].slider_mass",
             "mesh[1].solver",
-            "body[9].J",
+            "body[17].J",
             "mesh[1].theta_A",
         ] {
             assert!(!has(n), "{n}");

@@ -104,7 +104,15 @@ def format_start_value(value):
         if value.startswith("-") and " " not in value:
             return " " + value
         return value
-    return repr(float(value))  # shortest repr that round-trips: no precision lost
+    x = float(value)
+    text = repr(x)  # shortest repr that round-trips: no precision lost
+    if x < 0 and "e" in text:
+        # argparse takes '-5e-05' for an option (its negative-number pattern has no
+        # exponent); the same shortest digits written positionally stay a value.
+        import numpy as np
+        text = np.format_float_positional(x, unique=True, trim="-")
+        assert float(text) == x
+    return text
 
 
 def fmpy_command(fmu, scene, output_file, rel_tol=None, solver=None):

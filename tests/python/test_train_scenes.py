@@ -152,8 +152,9 @@ def test_the_default_train_initializes(train_unzip_dir, train_md):
 # name -> (start values, element names the error message must contain).  The defaults: 4 bodies,
 # mesh 1 = 1-2, shaft 1 = 2-3, mesh 2 = 3-4; meshes 3.. join 5-6, 7-8, ...
 BAD_INPUT = {
-    # a fourth edge on four bodies: mesh 3 from body 4 back to body 1 closes
-    # mesh[1] - shaft[1] - mesh[2] - mesh[3]; every element of the cycle must be named
+    # a fourth edge on four bodies: mesh 3 from body 4 back to body 1 closes the loop
+    # mesh[1] - shaft[1] - mesh[2] - mesh[3], whose housing-fixed axes (all at centre angle 0)
+    # cannot meet; every element of the loop must be named
     "cycle": ({"n_bodies": 4, "n_shafts": 1, "n_meshes": 3, "mesh[3].A": 4, "mesh[3].B": 1},
               ["mesh[3]", "mesh[1]", "mesh[2]", "shaft[1]"]),
     "disconnected-body": ({"n_bodies": 5}, ["body[5]"]),
@@ -185,10 +186,10 @@ def test_bad_input_is_an_error_at_initialization(case, train_unzip_dir, train_md
 
 def test_count_above_capacity_is_refused_by_set_integer(train_unzip_dir, train_md):
     v = {v.name: v for v in train_md.modelVariables}["n_meshes"]
-    assert int(v.max) == 6, f"n_meshes max = {v.max}; the spec's capacity is 6 meshes"
-    exc, messages, calls = simulate(train_unzip_dir, train_md, {"n_meshes": 7})
+    assert int(v.max) == 16, f"n_meshes max = {v.max}; the spec's capacity is 16 meshes (planetary.md section 5)"
+    exc, messages, calls = simulate(train_unzip_dir, train_md, {"n_meshes": 17})
     assert exc is not None and exc.function == "fmi2SetInteger" and exc.status == FMI2_ERROR, \
-        f"n_meshes = 7: {exc and (exc.function, exc.status)}; calls: {calls[-3:]}"
+        f"n_meshes = 17: {exc and (exc.function, exc.status)}; calls: {calls[-3:]}"
     errors = [m for s, c, m in messages if s == FMI2_ERROR]
     assert any("n_meshes" in m for m in errors), f"no error naming n_meshes: {messages}"
     assert not any("InitializationMode" in c for c in calls), "initialization was entered"

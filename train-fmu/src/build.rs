@@ -4,7 +4,7 @@
 use crate::variables::{Inputs, Params, Var, VarInfo, VARIABLES};
 use gear_model::model::mesh::Coefficients;
 use gear_model::model::train::{
-    Body, MeshPlace, Ripple, Shaft, TrainLoads, TrainSpec, MAX_BODIES, MAX_MESHES,
+    Body, MeshPlace, Planet, Ripple, Shaft, TrainLoads, TrainSpec, HOUSING, MAX_BODIES, MAX_MESHES,
 };
 use gear_model::variables as single;
 
@@ -97,17 +97,36 @@ pub fn spec(p: &Params) -> Result<TrainSpec, String> {
         p.n_shafts as usize,
         p.n_meshes as usize,
     );
+    // An element's end: a body, or 0 for the housing.
     let body_index = |name: String| -> Result<usize, String> {
         let i = int(p, &name);
-        if i < 1 || i as usize > nb {
+        if i < 0 || i as usize > nb {
             return Err(format!(
-                "parameter {name} = {i}: no such body (n_bodies = {nb})"
+                "parameter {name} = {i}: no such body (n_bodies = {nb}; 0 is the housing)"
             ));
         }
-        Ok(i as usize - 1)
+        Ok(if i == 0 { HOUSING } else { i as usize - 1 })
     };
+    let mut planets = Vec::with_capacity(nb);
+    for i in 1..=nb {
+        let name = format!("body[{i}].carrier");
+        let c = int(p, &name);
+        if c < 0 || c as usize > nb {
+            return Err(format!(
+                "parameter {name} = {c}: no such body (n_bodies = {nb}; 0: the housing holds its axis)"
+            ));
+        }
+        planets.push((c > 0).then(|| Planet {
+            carrier: c as usize - 1,
+            orbit_angle: real(p, &format!("body[{i}].orbit_angle")),
+            m: real(p, &format!("body[{i}].m")),
+            pin_error_r: real(p, &format!("body[{i}].pin_error_r")),
+            pin_error_t: real(p, &format!("body[{i}].pin_error_t")),
+        }));
+    }
     let bodies = (1..=nb)
         .map(|i| Body {
+            planet: planets[i - 1],
             j: real(p, &format!("body[{i}].J")),
             c: real(p, &format!("body[{i}].c")),
             w_start: real(p, &format!("body[{i}].w_start")),

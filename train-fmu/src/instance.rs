@@ -13,10 +13,11 @@ use crate::variables::{
 use fmi2_slave::fmu_state::{Reader, Writer};
 use gear_model::driver::exchange::{Exchange, ExchangeRig};
 use gear_model::driver::train_simulation::TrainSimulation;
+use gear_model::driver::Vector;
 use gear_model::driver::{Method, Stats};
 use gear_model::model::mesh::LawOutOfRange;
 use gear_model::model::statistics::{Statistics, Summary};
-use gear_model::model::train::{self, State, Train, NY, N_MARGINS, N_MASTER_STATES};
+use gear_model::model::train::{self, State, Train, N_MARGINS, N_MASTER_STATES};
 use gear_model::variables as single;
 use rig_fmu::{Rig, Run};
 
@@ -169,6 +170,7 @@ fn write_outputs(
     o.W_ext = y[train::W_EXT];
     o.W_loss = y[train::W_LOSS];
     o.E_gate = train.e_gate;
+    o.housing_tau = train.housing_torque(y).map_err(|e| e.to_string())?;
     o.n_events = saturate(train.n_events);
     o.n_steps = saturate(st.steps);
     o.n_rejected_steps = saturate(st.rejected);
@@ -238,7 +240,7 @@ impl Rig for TrainRig {
     /// The locals (the states that are not outputs, and every state's derivative) at state y:
     /// a right-hand-side evaluation, so only when a master reads one.
     fn locals(train: &Train, y: &State) -> Result<Locals, LawOutOfRange> {
-        let mut dy = [0.0; NY];
+        let mut dy = State::zeros();
         train.rhs(y, &mut dy)?;
         let (mut x, mut dx) = ([0.0; N_MASTER_STATES], [0.0; N_MASTER_STATES]);
         train.to_master(y, &mut x);
@@ -247,6 +249,18 @@ impl Rig for TrainRig {
         for (k, &(state, der)) in STATES.iter().enumerate() {
             l.set_real(state, x[k]);
             l.set_real(der, dx[k]);
+        }
+        for m in 0..train.meshes.len() {
+            l.set_real(
+                var(&format!("mesh[{}].dte_rate", m + 1)),
+                train.dte_rate(m, y),
+            );
+        }
+        for j in 0..train.spec().shafts.len() {
+            l.set_real(
+                var(&format!("shaft[{}].twist_rate", j + 1)),
+                train.shaft_twist_rate(j, y),
+            );
         }
         Ok(l)
     }
@@ -341,24 +355,28 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
     let mut values = restore_train(t, &fresh.train)?;
     let d = &sim.driver;
     values.extend([d.t, d.observed, d.search_from]);
-    values.extend_from_slice(&d.y_start);
+    values.extend_from_slice(d.y_start.as_slice());
     // The method's own state: a state edited with a recomputed checksum must bring no NaN.
     match &d.method {
         Method::Dopri5(x) => {
             values.extend([x.t, x.t_prev, x.h]);
-            values.extend_from_slice(&x.y);
-            values.extend_from_slice(&x.k1);
-            x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+            values.extend_from_slice(x.y.as_slice());
+            values.extend_from_slice(x.k1.as_slice());
+            x.rcont
+                .iter()
+                .for_each(|r| values.extend_from_slice(r.as_slice()));
         }
         Method::Dop853(x) => {
             values.extend([x.t, x.t_prev, x.h]);
-            values.extend_from_slice(&x.y);
-            values.extend_from_slice(&x.k1);
-            x.rcont.iter().for_each(|r| values.extend_from_slice(r));
+            values.extend_from_slice(x.y.as_slice());
+            values.extend_from_slice(x.k1.as_slice());
+            x.rcont
+                .iter()
+                .for_each(|r| values.extend_from_slice(r.as_slice()));
         }
         Method::Bdf(x) => {
             values.extend([x.t, x.t_prev, x.h]);
-            values.extend_from_slice(&x.y);
+            values.extend_from_slice(x.y.as_slice());
         }
     }
     if values.iter().any(|v| !v.is_finite()) || !(d.tol.rtol >= 1e-14 && d.tol.rtol <= 0.1) {

@@ -170,7 +170,16 @@ impl GearMesh {
     /// Builds the mesh from one pair's parameters and where its teeth start; `slider`: the rig
     /// moves B's bearing. The recorded signs are set by `init_signs` once the rig has a state.
     pub fn new(p: &Params, placement: Placement, slider: bool) -> Result<GearMesh, ModelError> {
-        let mut geo = Geometry::new(p)?;
+        Self::with_geometry(p, Geometry::new(p)?, placement, slider)
+    }
+
+    /// The same with the pair's geometry at hand (a planet's, at the distance its axes are).
+    pub fn with_geometry(
+        p: &Params,
+        mut geo: Geometry,
+        placement: Placement,
+        slider: bool,
+    ) -> Result<GearMesh, ModelError> {
         let law = match p.contact_model {
             2 => ContactModel::Rigid {
                 restitution: p.restitution,

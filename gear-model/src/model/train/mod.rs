@@ -1,47 +1,48 @@
-//! The gear train (gear-train.md): rotating bodies joined by torsional shafts and gear meshes
-//! in a tree. It owns the equations of motion and reuses the mesh component for every mesh.
+//! The gear train (gear-train.md, planetary.md §3-§4): rotating bodies joined by torsional
+//! shafts and gear meshes, the housing as body 0, carriers with planets, and loops of meshes.
+//! It owns the equations of motion and reuses the mesh component for every mesh.
 //!
-//! State: body 1's forward angle and speed, the two quadratures (external work, dissipated
-//! energy), then for each edge in the walk from body 1 its relative coordinate and rate: a
-//! mesh's transmission error dte_m = rAb theta_A - rBb theta_B + dte_start_m (its forward
-//! penetration) and d(dte_m)/dt, a shaft's twist theta_a - theta_b + twist_start and its rate.
-//! As in the
-//! single mesh, the penetrations are states of their own and keep full precision however far
-//! the bodies turn; the bodies' angles and speeds follow along the tree.
+//! State: the two quadratures (external work, dissipated energy), then each coordinate and
+//! its rate (`kinematics`): the free bodies' forward angles, then for each step of the
+//! placing walk a mesh's transmission error dte_m (its forward penetration) or a shaft's
+//! twist. As in the single mesh, the penetrations are states of their own, and a mesh that
+//! closes a loop has its dte from them: every dte keeps full precision however far the
+//! bodies turn. The bodies' angles and speeds follow by forward substitution.
 
+pub mod kinematics;
 pub mod placement;
 pub mod topology;
 
 use super::contact::{EventFn, N_EVENTS};
-use super::geometry::Geometry;
 use super::mesh::{self, EventReport, GearMesh, Kin, LawOutOfRange};
 use super::statistics::Statistics;
 use super::ModelError;
+use crate::driver::Vector;
+use kinematics::{Coord, Coordinates, Source};
+use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 pub use topology::{
-    Body, Edge, MeshPlace, Ripple, Shaft, Step, TrainSpec, Tree, MAX_BODIES, MAX_MESHES, MAX_SHAFTS,
+    body_name, Body, Edge, MeshPlace, Planet, Ripple, Shaft, Structure, TrainSpec, HOUSING,
+    MAX_BODIES, MAX_MESHES, MAX_SHAFTS,
 };
 
-/// Body 1's angle and speed, the quadratures, then a coordinate and its rate per edge.
-pub const NY: usize = 4 + 2 * (MAX_BODIES - 1);
-pub type State = [f64; NY];
-pub const THETA_1: usize = 0;
-pub const W_1: usize = 1;
-pub const W_EXT: usize = 2;
-pub const W_LOSS: usize = 3;
+/// The quadratures, then a coordinate and its rate per body.
+pub const NY: usize = 2 + 2 * MAX_BODIES;
+pub type State = crate::driver::wide::Wide<NY>;
+pub const W_EXT: usize = 0;
+pub const W_LOSS: usize = 1;
 /// The margins: every mesh's event functions, mesh m's from m N_EVENTS on.
 pub const N_MARGINS: usize = MAX_MESHES * N_EVENTS;
 pub type Margins = crate::driver::wide::Wide<N_MARGINS>;
 
-/// The states a Model Exchange master integrates, in the FMU's order: body 1's angle and
-/// speed, the quadratures, every shaft's twist and rate, every mesh's dte and rate, for the
-/// full capacity (elements not in use read 0).
-pub const N_MASTER_STATES: usize = 4 + 2 * (MAX_SHAFTS + MAX_MESHES);
+/// The states a Model Exchange master integrates: the state itself, for the full capacity
+/// (coordinates not in use read 0).
+pub const N_MASTER_STATES: usize = NY;
 
-/// Edge k's coordinate in the state (its rate follows it).
-pub const fn edge_index(k: usize) -> usize {
-    4 + 2 * k
+/// Coordinate k's place in the state (its rate follows it).
+pub const fn coord_index(k: usize) -> usize {
+    2 + 2 * k
 }
 
 /// What a master may change between steps: the bodies' torques and the meshes' coefficients.
@@ -51,60 +52,46 @@ pub struct TrainLoads {
     pub coef: Vec<mesh::Coefficients>,
 }
 
+/// How mesh m reads the bodies: A's angle relative to the mesh's carrier, theta_A -
+/// `rel_a` theta_c (`carrier` is the housing's slot, where angles are 0, off a carrier), and
+/// its dte.
+#[derive(Clone, Debug, PartialEq)]
+struct MeshLink {
+    a: usize,
+    b: usize,
+    carrier: usize,
+    rel_a: f64,
+    rel_b: f64,
+    /// dte from the state: dte0 + sum c (y[i] - offset) over (i, c, offset); the rate from
+    /// y[i + 1].
+    dte: Vec<(usize, f64, f64)>,
+    dte0: f64,
+}
+
 /// What the parameters fix.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainConfig {
     pub spec: TrainSpec,
-    pub tree: Tree,
-    /// The walk step of each mesh and shaft (its edge's place in the state).
-    mesh_step: Vec<usize>,
-    shaft_step: Vec<usize>,
-    /// Absolute start angles of the bodies \[rad\] (gear-train.md §4).
+    pub structure: Structure,
+    pub coords: Coordinates,
+    /// Absolute start angles of the bodies \[rad\].
     pub psi_start: Vec<f64>,
-    /// Each walk step as a linear map (`Link`), and the bodies' reciprocal inertias: the
+    /// Each planet's orbit radius \[m\] (0 off a carrier).
+    pub orbit_radius: Vec<f64>,
+    links: Vec<MeshLink>,
+    /// Each body's carrier slot (the housing's off a carrier) and sigma_i sigma_c.
+    body_carrier: Vec<(usize, f64)>,
+    /// Each body's inertia with its planets' orbital inertia, and its reciprocal: the
     /// right-hand side multiplies where it would divide (benches/rhs_cost.rs).
-    links: Vec<Link>,
+    j_eff: Vec<f64>,
     inv_j: Vec<f64>,
 }
 
-/// A walk step: theta_to = ratio theta_from + gain (q - offset), and the same for the speeds
-/// with the coordinate's rate.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Link {
-    from: usize,
-    to: usize,
-    ratio: f64,
-    gain: f64,
-    offset: f64,
-}
-
-impl Default for TrainConfig {
-    fn default() -> Self {
-        TrainConfig {
-            spec: TrainSpec {
-                bodies: vec![],
-                angle_start: 0.0,
-                shafts: vec![],
-                meshes: vec![],
-            },
-            tree: Tree {
-                steps: vec![],
-                sense: vec![],
-            },
-            mesh_step: vec![],
-            shaft_step: vec![],
-            psi_start: vec![],
-            links: vec![],
-            inv_j: vec![],
-        }
-    }
-}
-
-/// The bodies' forward angles and speeds at a state.
+/// The bodies' forward angles and speeds at a state; the housing's slot stays 0.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Bodies {
-    pub theta: [f64; MAX_BODIES],
-    pub w: [f64; MAX_BODIES],
+    pub theta: [f64; MAX_BODIES + 1],
+    pub w: [f64; MAX_BODIES + 1],
 }
 
 /// The train.
@@ -121,10 +108,42 @@ pub struct Train {
     pub stats: Option<Vec<Statistics>>,
 }
 
-/// One mesh's view of the train and the state's indices it reads.
-struct MeshView {
-    a: usize,
-    q: usize,
+impl Default for TrainConfig {
+    fn default() -> Self {
+        TrainConfig {
+            spec: TrainSpec {
+                bodies: vec![],
+                angle_start: 0.0,
+                shafts: vec![],
+                meshes: vec![],
+            },
+            structure: Structure {
+                frame: vec![],
+                sense: vec![],
+                mesh_sense: vec![],
+                shaft_sense: vec![],
+                uses_housing: false,
+                carriers: vec![],
+            },
+            coords: Coordinates::default(),
+            psi_start: vec![],
+            orbit_radius: vec![],
+            links: vec![],
+            body_carrier: vec![],
+            j_eff: vec![],
+            inv_j: vec![],
+        }
+    }
+}
+
+/// The torques on the bodies at a state, and what they do.
+struct Torques {
+    /// Forward torque on each body (the housing's slot is scratch).
+    on: [f64; MAX_BODIES + 1],
+    p_ext: f64,
+    p_loss: f64,
+    /// Counter-clockwise torque of the meshes and shafts on the housing.
+    housing: f64,
 }
 
 impl Train {
@@ -134,8 +153,7 @@ impl Train {
         tau: Vec<f64>,
         statistics: Option<f64>,
     ) -> Result<(Train, State), ModelError> {
-        let tree = spec.tree()?;
-        let mut geo = Vec::with_capacity(spec.meshes.len());
+        let st = spec.structure()?;
         for (m, mp) in spec.meshes.iter().enumerate() {
             let p = &mp.params;
             let name = |v: &str| format!("mesh[{}].{v}", m + 1);
@@ -152,71 +170,78 @@ impl Train {
                     p.slider_stiffness
                 )));
             }
-            let at = |e: ModelError| ModelError::new(format!("mesh[{}]: {}", m + 1, e.message));
-            super::params::validate(p).map_err(at)?;
-            geo.push(Geometry::new(p).map_err(at)?);
+            super::params::validate(p)
+                .map_err(|e| ModelError::new(format!("mesh[{}]: {}", m + 1, e.message)))?;
         }
-        let start = placement::place(&spec, &tree, &geo);
+        let lay = placement::layout(&spec, &st)?;
+        kinematics::check_jammed(&spec, &st, &lay.geo)?;
+        st.check_senses(&spec)?;
+        let start = placement::place(&spec, &st, &lay)?;
+        let coords = Coordinates::new(&spec, &st, &lay, &start)?;
         let mut meshes = Vec::with_capacity(spec.meshes.len());
         for (m, mp) in spec.meshes.iter().enumerate() {
             let at = |e: ModelError| ModelError::new(format!("mesh[{}]: {}", m + 1, e.message));
-            meshes.push(GearMesh::new(&mp.params, start.meshes[m], false).map_err(at)?);
+            meshes.push(
+                GearMesh::with_geometry(&mp.params, lay.geo[m].clone(), start.meshes[m], false)
+                    .map_err(at)?,
+            );
         }
-        let step_of = |e: Edge| {
-            tree.steps
-                .iter()
-                .position(|s| s.edge == e)
-                .expect("a tree walks every edge")
-        };
-        let mesh_step = (0..spec.meshes.len())
-            .map(|m| step_of(Edge::Mesh(m)))
+        let n = spec.bodies.len();
+        let links = (0..spec.meshes.len())
+            .map(|m| {
+                let mp = &spec.meshes[m];
+                let (sa, sb) = st.mesh_sense[m];
+                let (carrier, sc) = match st.frame[m] {
+                    Some(c) => (c, st.sense[c]),
+                    None => (HOUSING, 0.0),
+                };
+                let dte = match &coords.mesh[m] {
+                    Source::Coord(k) => vec![(coord_index(*k), 1.0, start.dte0[m])],
+                    Source::Combination(c) => c
+                        .iter()
+                        .map(|&(k, l)| (coord_index(k), l, coords.offset[k]))
+                        .collect(),
+                    Source::Bodies => unreachable!("a mesh's dte is a coordinate or a combination"),
+                };
+                MeshLink {
+                    a: mp.a,
+                    b: mp.b,
+                    carrier,
+                    rel_a: sa * sc,
+                    rel_b: sb * sc,
+                    dte,
+                    dte0: start.dte0[m],
+                }
+            })
             .collect();
-        let shaft_step = (0..spec.shafts.len())
-            .map(|j| step_of(Edge::Shaft(j)))
+        let body_carrier: Vec<(usize, f64)> = (0..n)
+            .map(|i| match spec.carrier_of(i) {
+                Some(c) => (c, st.sense[i] * st.sense[c]),
+                None => (HOUSING, 0.0),
+            })
             .collect();
+        let mut j_eff: Vec<f64> = spec.bodies.iter().map(|b| b.j).collect();
+        for (i, b) in spec.bodies.iter().enumerate() {
+            if let Some(pl) = b.planet {
+                j_eff[pl.carrier] += pl.m * lay.orbit_radius[i] * lay.orbit_radius[i];
+            }
+        }
+        let inv_j = j_eff.iter().map(|j| 1.0 / j).collect();
         let coef = spec
             .meshes
             .iter()
             .map(|mp| mesh::Coefficients::new(&mp.params))
             .collect();
         let n_meshes = spec.meshes.len();
-        let mut y = [0.0; NY];
-        y[W_1] = spec.bodies[0].w_start;
-        let links = tree
-            .steps
-            .iter()
-            .map(|st| {
-                let (ratio, gain, offset) = match st.edge {
-                    Edge::Mesh(m) => {
-                        let (g, dte) = (&meshes[m].geo, spec.meshes[m].params.dte_start);
-                        if st.from == spec.meshes[m].a {
-                            (g.r_ab / g.r_bb, -1.0 / g.r_bb, dte)
-                        } else {
-                            (g.r_bb / g.r_ab, 1.0 / g.r_ab, dte)
-                        }
-                    }
-                    Edge::Shaft(j) if st.from == spec.shafts[j].a => {
-                        (1.0, -1.0, spec.shafts[j].twist_start)
-                    }
-                    Edge::Shaft(j) => (1.0, 1.0, spec.shafts[j].twist_start),
-                };
-                Link {
-                    from: st.from,
-                    to: st.to,
-                    ratio,
-                    gain,
-                    offset,
-                }
-            })
-            .collect();
-        let inv_j = spec.bodies.iter().map(|b| 1.0 / b.j).collect();
         let cfg = TrainConfig {
             spec,
-            tree,
-            mesh_step,
-            shaft_step,
+            structure: st,
+            coords,
             psi_start: start.psi,
+            orbit_radius: lay.orbit_radius,
             links,
+            body_carrier,
+            j_eff,
             inv_j,
         };
         let mut train = Train {
@@ -228,24 +253,17 @@ impl Train {
             e_start: 0.0,
             stats: statistics.map(|t| vec![Statistics::new(t); n_meshes]),
         };
-        // Each edge's coordinate at the start: a mesh's dte is its dte_start, a shaft's twist
-        // its twist_start (all angles 0); the rates from the bodies' start speeds.
+        // Every angle starts at 0: each coordinate at its offset; the rates from the bodies'
+        // start speeds.
         let c = train.cfg.clone();
-        for (k, step) in c.tree.steps.iter().enumerate() {
-            let i = edge_index(k);
-            let w = |b: usize| c.spec.bodies[b].w_start;
-            match step.edge {
-                Edge::Mesh(m) => {
-                    let (mp, g) = (&c.spec.meshes[m], &train.meshes[m].geo);
-                    y[i] = mp.params.dte_start;
-                    y[i + 1] = g.r_ab * w(mp.a) - g.r_bb * w(mp.b);
-                }
-                Edge::Shaft(j) => {
-                    let sh = &c.spec.shafts[j];
-                    y[i] = sh.twist_start;
-                    y[i + 1] = w(sh.a) - w(sh.b);
-                }
-            }
+        let mut w = [0.0; MAX_BODIES + 1];
+        for (i, b) in c.spec.bodies.iter().enumerate() {
+            w[i] = b.w_start;
+        }
+        let mut y = State::zeros();
+        for k in 0..n {
+            y[coord_index(k)] = c.coords.offset[k];
+            y[coord_index(k) + 1] = c.coords.rows[k].dot(&w);
         }
         let b = train.bodies(&y);
         for m in 0..n_meshes {
@@ -266,100 +284,178 @@ impl Train {
         &self.cfg.spec
     }
 
-    fn view(&self, m: usize) -> MeshView {
-        let mp = &self.cfg.spec.meshes[m];
-        MeshView {
-            a: mp.a,
-            q: edge_index(self.cfg.mesh_step[m]),
-        }
-    }
-
-    /// The bodies' angles and speeds: body 1's from the state, the others along the tree.
+    /// The bodies' angles and speeds from the coordinates.
     #[inline]
     pub fn bodies(&self, y: &State) -> Bodies {
-        let mut b = Bodies::default();
-        b.theta[0] = y[THETA_1];
-        b.w[0] = y[W_1];
-        for (k, l) in self.cfg.links.iter().enumerate() {
-            let (q, dq) = (y[edge_index(k)], y[edge_index(k) + 1]);
-            b.theta[l.to] = l.ratio * b.theta[l.from] + l.gain * (q - l.offset);
-            b.w[l.to] = l.ratio * b.w[l.from] + l.gain * dq;
+        let c = &self.cfg.coords;
+        let n = c.coords.len();
+        let (mut x, mut v) = ([0.0; MAX_BODIES], [0.0; MAX_BODIES]);
+        for k in 0..n {
+            x[k] = y[coord_index(k)];
+            v[k] = y[coord_index(k) + 1];
         }
+        let mut b = Bodies::default();
+        c.substitute_with(&x[..n], true, &mut b.theta);
+        c.substitute_with(&v[..n], false, &mut b.w);
         b
     }
 
-    /// Mesh m's coordinates: A's angle and speed, its dte and rate (no slider in a train).
+    /// Mesh m's dte and its rate at y.
+    #[inline]
+    fn dte_and_rate(&self, m: usize, y: &State) -> (f64, f64) {
+        let l = &self.cfg.links[m];
+        if let [(i, c, _)] = l.dte[..] {
+            if c == 1.0 {
+                return (y[i], y[i + 1]);
+            }
+        }
+        let (mut q, mut dq) = (l.dte0, 0.0);
+        for &(i, c, off) in &l.dte {
+            q += c * (y[i] - off);
+            dq += c * y[i + 1];
+        }
+        (q, dq)
+    }
+
+    /// Mesh m's coordinates: A's angle and speed relative to the mesh's carrier, its dte and
+    /// rate (no slider in a train).
     #[inline]
     fn kin(&self, m: usize, y: &State, b: &Bodies) -> Kin {
-        let v = self.view(m);
-        [b.theta[v.a], y[v.q], b.w[v.a], y[v.q + 1], 0.0, 0.0]
+        let l = &self.cfg.links[m];
+        let (q, dq) = self.dte_and_rate(m, y);
+        [
+            b.theta[l.a] - l.rel_a * b.theta[l.carrier],
+            q,
+            b.w[l.a] - l.rel_a * b.w[l.carrier],
+            dq,
+            0.0,
+            0.0,
+        ]
+    }
+
+    /// Shaft j's twist theta_a - theta_b + twist_start and its rate at y.
+    fn shaft_state(&self, j: usize, y: &State, b: Option<&Bodies>) -> (f64, f64) {
+        let c = &*self.cfg;
+        match c.coords.shaft[j] {
+            Source::Coord(k) => (y[coord_index(k)], y[coord_index(k) + 1]),
+            _ => {
+                let sh = &c.spec.shafts[j];
+                let own;
+                let b = match b {
+                    Some(b) => b,
+                    None => {
+                        own = self.bodies(y);
+                        &own
+                    }
+                };
+                (
+                    b.theta[sh.a] - b.theta[sh.b] + sh.twist_start,
+                    b.w[sh.a] - b.w[sh.b],
+                )
+            }
+        }
     }
 
     /// Shaft j's transmitted torque at y (gear-train.md §1).
     pub fn shaft_torque(&self, j: usize, y: &State) -> f64 {
         let sh = &self.cfg.spec.shafts[j];
-        let i = edge_index(self.cfg.shaft_step[j]);
-        // The state's twist is theta_a - theta_b + twist_start whichever end the walk came from.
-        sh.k * y[i] + sh.d * y[i + 1]
+        let (q, dq) = self.shaft_state(j, y, None);
+        sh.k * q + sh.d * dq
     }
 
     /// Shaft j's twist theta_a - theta_b + twist_start at y.
     pub fn shaft_twist(&self, j: usize, y: &State) -> f64 {
-        y[edge_index(self.cfg.shaft_step[j])]
+        self.shaft_state(j, y, None).0
     }
 
-    /// Right-hand side with the current modes (gear-train.md §5): each mesh's torques go
-    /// straight onto its bodies.
+    /// Shaft j's twist rate w_a - w_b at y.
+    pub fn shaft_twist_rate(&self, j: usize, y: &State) -> f64 {
+        self.shaft_state(j, y, None).1
+    }
+
+    /// Every torque on the bodies with the current modes (gear-train.md §5, planetary.md §3):
+    /// inputs, drags (a planet's relative to its carrier, which takes the reaction), each
+    /// mesh's torques on its gears and minus their sum on its carrier, the shafts'.
+    #[inline]
+    fn torques(&self, y: &State, b: &Bodies) -> Result<Torques, LawOutOfRange> {
+        let c = &*self.cfg;
+        let mut t = Torques {
+            on: [0.0; MAX_BODIES + 1],
+            p_ext: 0.0,
+            p_loss: 0.0,
+            housing: 0.0,
+        };
+        for (i, body) in c.spec.bodies.iter().enumerate() {
+            let tau = self.loads.tau[i] + body.ripple.torque(b.theta[i]);
+            let (carrier, rel) = c.body_carrier[i];
+            let w_rel = b.w[i] - rel * b.w[carrier];
+            let drag = body.c * w_rel;
+            t.on[i] += tau - drag;
+            t.on[carrier] += rel * drag;
+            t.p_ext += tau * b.w[i] - drag * w_rel;
+        }
+        let st = &c.structure;
+        for (m, (mesh, l)) in self.meshes.iter().zip(&c.links).enumerate() {
+            let load = mesh.compliant_load(&self.kin(m, y, b), None)?;
+            t.on[l.a] += load.tq_a;
+            t.on[l.b] += load.tq_b;
+            t.on[l.carrier] -= l.rel_a * load.tq_a + l.rel_b * load.tq_b;
+            let (sa, sb) = st.mesh_sense[m];
+            if l.a == HOUSING {
+                t.housing += sa * load.tq_a;
+            }
+            if l.b == HOUSING {
+                t.housing += sb * load.tq_b;
+            }
+            t.p_ext += load.p_param;
+            t.p_loss += load.p_loss;
+        }
+        for (j, sh) in c.spec.shafts.iter().enumerate() {
+            let (q, dq) = self.shaft_state(j, y, Some(b));
+            let tq = sh.k * q + sh.d * dq;
+            t.on[sh.a] -= tq;
+            t.on[sh.b] += tq;
+            let s = st.shaft_sense[j];
+            if sh.a == HOUSING {
+                t.housing -= s * tq;
+            }
+            if sh.b == HOUSING {
+                t.housing += s * tq;
+            }
+            t.p_loss += sh.d * dq * dq;
+        }
+        Ok(t)
+    }
+
+    /// The counter-clockwise torque the meshes and shafts apply to the housing at y.
+    pub fn housing_torque(&self, y: &State) -> Result<f64, LawOutOfRange> {
+        Ok(self.torques(y, &self.bodies(y))?.housing)
+    }
+
+    /// Right-hand side with the current modes: the bodies' accelerations (the inertias are
+    /// diagonal in the absolute rotations), then each coordinate's.
     pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         let c = &*self.cfg;
         let b = self.bodies(y);
+        let t = self.torques(y, &b)?;
         let n = c.spec.bodies.len();
-        let mut torque = [0.0; MAX_BODIES];
-        let (mut p_ext, mut p_loss) = (0.0, 0.0);
-        for (i, body) in c.spec.bodies.iter().enumerate() {
-            let tau = self.loads.tau[i] + body.ripple.torque(b.theta[i]);
-            torque[i] = tau - body.c * b.w[i];
-            p_ext += tau * b.w[i] - body.c * b.w[i] * b.w[i];
+        let mut acc = [0.0; MAX_BODIES + 1];
+        for (a, (tq, inv_j)) in acc.iter_mut().zip(t.on.iter().zip(&c.inv_j)).take(n) {
+            *a = tq * inv_j;
         }
-        for (m, (mesh, mp)) in self.meshes.iter().zip(&c.spec.meshes).enumerate() {
-            let load = mesh.compliant_load(&self.kin(m, y, &b), None)?;
-            torque[mp.a] += load.tq_a;
-            torque[mp.b] += load.tq_b;
-            p_ext += load.p_param;
-            p_loss += load.p_loss;
-        }
-        for (j, sh) in c.spec.shafts.iter().enumerate() {
-            let i = edge_index(c.shaft_step[j]);
-            let t = sh.k * y[i] + sh.d * y[i + 1];
-            torque[sh.a] -= t;
-            torque[sh.b] += t;
-            p_loss += sh.d * y[i + 1] * y[i + 1];
-        }
-        let mut acc = [0.0; MAX_BODIES];
-        for (a, (t, inv_j)) in acc.iter_mut().zip(torque.iter().zip(&c.inv_j)).take(n) {
-            *a = t * inv_j;
-        }
-        dy[THETA_1] = y[W_1];
-        dy[W_1] = acc[0];
-        dy[W_EXT] = p_ext;
-        dy[W_LOSS] = p_loss;
-        for (k, step) in c.tree.steps.iter().enumerate() {
-            let i = edge_index(k);
+        dy[W_EXT] = t.p_ext;
+        dy[W_LOSS] = t.p_loss;
+        for (k, row) in c.coords.rows.iter().enumerate() {
+            let i = coord_index(k);
             dy[i] = y[i + 1];
-            dy[i + 1] = match step.edge {
-                Edge::Mesh(m) => {
-                    let (mp, g) = (&c.spec.meshes[m], &self.meshes[m].geo);
-                    g.r_ab * acc[mp.a] - g.r_bb * acc[mp.b]
-                }
-                Edge::Shaft(j) => acc[c.spec.shafts[j].a] - acc[c.spec.shafts[j].b],
-            };
+            dy[i + 1] = row.dot(&acc);
         }
         Ok(())
     }
 
     /// The number of state components in use (a prefix of `State`).
     pub fn dim(&self) -> usize {
-        4 + 2 * self.cfg.tree.steps.len()
+        2 + 2 * self.cfg.coords.coords.len()
     }
 
     /// The event functions in use: every mesh's block (a prefix of the margins).
@@ -380,7 +476,7 @@ impl Train {
     }
 
     pub fn check_range(&self, y: &State) -> Result<(), LawOutOfRange> {
-        let mut dy = [0.0; NY];
+        let mut dy = State::zeros();
         self.rhs(y, &mut dy)?;
         self.check_state(y)
     }
@@ -450,19 +546,17 @@ impl Train {
     }
 
     /// Bound on the highest natural frequency \[rad/s\] (the trace of M^-1 K bounds its
-    /// largest eigenvalue): the meshes' stiffness along their lines of action and the shafts'.
+    /// largest eigenvalue): each mesh's stiffness along its line of action, each shaft's.
     pub fn vibration_frequency(&self, y: &State) -> f64 {
         let c = &*self.cfg;
         let b = self.bodies(y);
-        let inv_j = |i: usize| 1.0 / c.spec.bodies[i].j;
         let mut sum = 0.0;
         for (m, mesh) in self.meshes.iter().enumerate() {
-            let (mp, g) = (&c.spec.meshes[m], &mesh.geo);
             let k = mesh.mesh_stiffness(&self.kin(m, y, &b));
-            sum += k * (g.r_ab * g.r_ab * inv_j(mp.a) + g.r_bb * g.r_bb * inv_j(mp.b));
+            sum += k * c.mobility(&kinematics::mesh_row(&c.spec, &c.structure, &mesh.geo, m));
         }
-        for sh in &c.spec.shafts {
-            sum += sh.k * (inv_j(sh.a) + inv_j(sh.b));
+        for (j, sh) in c.spec.shafts.iter().enumerate() {
+            sum += sh.k * c.mobility(&kinematics::shaft_row(&c.spec, j));
         }
         sum.sqrt()
     }
@@ -473,7 +567,8 @@ impl Train {
         let b = self.bodies(y);
         let mut h = f64::INFINITY;
         for (m, mesh) in self.meshes.iter().enumerate() {
-            let speed = mesh.geo.r_ab * b.w[self.cfg.spec.meshes[m].a].abs();
+            let l = &self.cfg.links[m];
+            let speed = mesh.geo.r_ab * (b.w[l.a] - l.rel_a * b.w[l.carrier]).abs();
             if speed > 0.0 {
                 h = h.min(0.25 * mesh.geo.p_b / speed);
             }
@@ -488,9 +583,9 @@ impl Train {
     }
 
     fn kinetic_energy(&self, b: &Bodies) -> f64 {
-        let bodies = &self.cfg.spec.bodies;
-        (0..bodies.len())
-            .map(|i| 0.5 * bodies[i].j * b.w[i] * b.w[i])
+        let c = &*self.cfg;
+        (0..c.j_eff.len())
+            .map(|i| 0.5 * c.j_eff[i] * b.w[i] * b.w[i])
             .sum()
     }
 
@@ -500,7 +595,7 @@ impl Train {
         let b = self.bodies(y);
         let mut e = 0.0;
         for (j, sh) in c.spec.shafts.iter().enumerate() {
-            let twist = y[edge_index(c.shaft_step[j])];
+            let twist = self.shaft_state(j, y, Some(&b)).0;
             e += 0.5 * sh.k * twist * twist;
         }
         for (m, mesh) in self.meshes.iter().enumerate() {
@@ -547,23 +642,19 @@ impl Train {
         Ok(self.meshes[m].readout_from(&k, &pairs, &load))
     }
 
-    /// Where master state j (`N_MASTER_STATES`) is in the state; None: an element not in use.
+    /// Where master state j (`N_MASTER_STATES`) is in the state; None: not in use.
     pub fn master_index(&self, j: usize) -> Option<usize> {
-        let c = &*self.cfg;
-        if j < 4 {
-            return Some(j);
-        }
-        let (k, r) = ((j - 4) / 2, j % 2);
-        if k < MAX_SHAFTS {
-            c.shaft_step.get(k).map(|&s| edge_index(s) + r)
-        } else {
-            c.mesh_step.get(k - MAX_SHAFTS).map(|&s| edge_index(s) + r)
-        }
+        (j < self.dim()).then_some(j)
     }
 
     /// Mesh m's dte (its forward penetration) at y.
     pub fn dte(&self, m: usize, y: &State) -> f64 {
-        y[self.view(m).q]
+        self.dte_and_rate(m, y).0
+    }
+
+    /// Mesh m's dte rate at y.
+    pub fn dte_rate(&self, m: usize, y: &State) -> f64 {
+        self.dte_and_rate(m, y).1
     }
 
     /// Adds the piece [t0, t1] (modes fixed) to each mesh's statistics.
@@ -592,102 +683,90 @@ impl Train {
         t1: f64,
         y: &dyn Fn(f64) -> State,
     ) -> Result<(), LawOutOfRange> {
-        let q = self.view(m).q;
         let force = |t: f64| -> Result<f64, LawOutOfRange> {
             let r = self.mesh_readout(m, &y(t))?;
             Ok(r.flank_force[0] + r.flank_force[1])
         };
-        s.add(self.meshes[m].contact_modes(), t0, t1, &|t| y(t)[q], &force)
+        s.add(
+            self.meshes[m].contact_modes(),
+            t0,
+            t1,
+            &|t| self.dte(m, &y(t)),
+            &force,
+        )
     }
 
-    /// The torque each edge carries in a rigid train under the current torques (drag and
-    /// vibration left out): the scale of its coordinate's error tolerance. The bodies turn
-    /// as one, w_i = r_i w_1, with acceleration sum r_i tau_i / sum r_i^2 J_i; an edge carries
-    /// what the bodies beyond it need.
-    fn static_edge_torques(&self) -> [f64; MAX_BODIES - 1] {
+    /// The load each coordinate carries when the train turns rigidly under the current
+    /// torques (drag and vibration left out): the scale of its error tolerance. With theta =
+    /// T x, the free coordinates accelerate as (T^T J T)_FF a = (T^T tau)_F, and an edge's
+    /// coordinate needs the generalized force (T^T J T)_EF a - (T^T tau)_E: a mesh's normal
+    /// force, a shaft's torque. A loop's meshes share the load; this books it on the steps.
+    fn static_loads(&self) -> Vec<f64> {
         let c = &*self.cfg;
-        let n = c.spec.bodies.len();
-        let mut ratio = [0.0; MAX_BODIES];
-        ratio[0] = 1.0;
-        for step in &c.tree.steps {
-            ratio[step.to] = match step.edge {
-                Edge::Shaft(_) => ratio[step.from],
-                Edge::Mesh(m) => {
-                    let (mp, g) = (&c.spec.meshes[m], &self.meshes[m].geo);
-                    if step.from == mp.a {
-                        ratio[step.from] * g.r_ab / g.r_bb
-                    } else {
-                        ratio[step.from] * g.r_bb / g.r_ab
-                    }
-                }
-            };
-        }
-        let (mut num, mut den) = (0.0, 0.0);
-        for (i, r) in ratio.iter().enumerate().take(n) {
-            num += r * self.loads.tau[i];
-            den += r * r * c.spec.bodies[i].j;
-        }
-        let acc1 = num / den;
-        // Net torque each body needs beyond its own: J_i r_i acc1 - tau_i; summed over the
-        // subtree beyond each edge, walking the steps backwards.
-        let mut need = [0.0; MAX_BODIES];
-        for i in 0..n {
-            need[i] = c.spec.bodies[i].j * ratio[i] * acc1 - self.loads.tau[i];
-        }
-        let mut through = [0.0; MAX_BODIES - 1];
-        for (k, step) in c.tree.steps.iter().enumerate().rev() {
-            through[k] = need[step.to];
-            let carried = match step.edge {
-                Edge::Shaft(_) => need[step.to],
-                Edge::Mesh(m) => {
-                    let (mp, g) = (&c.spec.meshes[m], &self.meshes[m].geo);
-                    if step.from == mp.a {
-                        need[step.to] * g.r_ab / g.r_bb
-                    } else {
-                        need[step.to] * g.r_bb / g.r_ab
-                    }
-                }
-            };
-            need[step.from] += carried;
-        }
-        through
+        let t = &c.coords.t;
+        let n = t.ncols();
+        let j = DMatrix::from_diagonal(&DVector::from_column_slice(&c.j_eff));
+        let m = t.transpose() * j * t;
+        let tau = DVector::from_iterator(n, self.loads.tau.iter().copied());
+        let q = t.transpose() * tau;
+        let free: Vec<usize> = (0..n)
+            .filter(|&k| matches!(c.coords.coords[k], Coord::Body(_)))
+            .collect();
+        let mff = DMatrix::from_fn(free.len(), free.len(), |r, s| m[(free[r], free[s])]);
+        let qf = DVector::from_iterator(free.len(), free.iter().map(|&k| q[k]));
+        let a = mff
+            .lu()
+            .solve(&qf)
+            .unwrap_or_else(|| DVector::zeros(free.len()));
+        (0..n)
+            .map(|k| {
+                let need: f64 = free
+                    .iter()
+                    .enumerate()
+                    .map(|(r, &f)| m[(k, f)] * a[r])
+                    .sum();
+                need - q[k]
+            })
+            .collect()
     }
 
-    /// Absolute tolerances at a relative tolerance: 1 rad and 1 rad/s for body 1 (relative
-    /// control above); for a mesh, the static penetration of one pair under the force the
-    /// torques imply (floor 1e-12 m) and that penetration at the mesh's natural frequency, as
-    /// in the single mesh; for a shaft, its static twist (floor 1e-12 rad) and that twist at
-    /// its own frequency. 0: not under error control (the quadratures).
+    /// Absolute tolerances at a relative tolerance: 1 rad and 1 rad/s for a free body's
+    /// angle (relative control above); for a mesh, the static penetration of one pair under
+    /// its load (floor 1e-12 m) and that penetration at the mesh's natural frequency, as in
+    /// the single mesh; for a shaft, its static twist (floor 1e-12 rad) and that twist at its
+    /// own frequency. 0: not under error control (the quadratures).
     pub fn abs_tol(&self, rel_tol: f64) -> State {
         let c = &*self.cfg;
-        let through = self.static_edge_torques();
-        let mut atol = [0.0; NY];
-        atol[THETA_1] = rel_tol;
-        atol[W_1] = rel_tol;
-        let inv_j = |i: usize| 1.0 / c.spec.bodies[i].j;
-        for (k, step) in c.tree.steps.iter().enumerate() {
-            let i = edge_index(k);
-            let (x, omega) = match step.edge {
-                Edge::Mesh(m) => {
-                    let (mp, mesh) = (&c.spec.meshes[m], &self.meshes[m]);
-                    let g = &mesh.geo;
-                    let r_to = if step.to == mp.a { g.r_ab } else { g.r_bb };
-                    let (delta, stiffness) = mesh.static_scale(through[k].abs() / r_to);
-                    let omega = (stiffness
-                        * (g.r_ab * g.r_ab * inv_j(mp.a) + g.r_bb * g.r_bb * inv_j(mp.b)))
-                    .sqrt();
-                    (delta, omega)
+        let load = self.static_loads();
+        let mut atol = State::zeros();
+        for (k, coord) in c.coords.coords.iter().enumerate() {
+            let i = coord_index(k);
+            let mobility = c.mobility(&c.coords.rows[k]);
+            let (x, omega) = match *coord {
+                Coord::Body(_) => (1.0, 1.0),
+                Coord::Edge(Edge::Mesh(m)) => {
+                    let (delta, stiffness) = self.meshes[m].static_scale(load[k].abs());
+                    (delta, (stiffness * mobility).sqrt())
                 }
-                Edge::Shaft(j) => {
+                Coord::Edge(Edge::Shaft(j)) => {
                     let sh = &c.spec.shafts[j];
-                    let twist = (through[k].abs() / sh.k).max(1e-12);
-                    (twist, (sh.k * (inv_j(sh.a) + inv_j(sh.b))).sqrt())
+                    ((load[k].abs() / sh.k).max(1e-12), (sh.k * mobility).sqrt())
                 }
             };
             atol[i] = rel_tol * x;
             atol[i + 1] = rel_tol * (x * omega).max(1e-12);
+            if matches!(coord, Coord::Body(_)) {
+                atol[i + 1] = rel_tol;
+            }
         }
         atol
+    }
+}
+
+impl TrainConfig {
+    /// A coordinate's reciprocal inertia: sum of row_i^2 / J_i.
+    fn mobility(&self, row: &kinematics::Row) -> f64 {
+        row.0.iter().map(|&(i, r)| r * r * self.inv_j[i]).sum()
     }
 }
 
