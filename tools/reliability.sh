@@ -67,13 +67,23 @@ echo "== SpurGearTrain: package, compile tests/c/train_memcheck.c"
 train=$(cargo run -q -p fmu-packaging --release --bin package-train | tail -n 1)
 [ -f "$train" ] || { echo "reliability.sh: package-train printed '$train'" >&2; exit 1; }
 args=$("$py" - "$train" "$work" <<'EOF'
-import sys, zipfile, xml.etree.ElementTree as ET
+import math, sys, tomllib, zipfile, xml.etree.ElementTree as ET
 fmu, work = sys.argv[1], sys.argv[2]
 z = zipfile.ZipFile(fmu)
 z.extract("binaries/linux64/SpurGearTrain.so", work)
 md = ET.fromstring(z.read("modelDescription.xml"))
 vr = {v.get("name"): v.get("valueReference") for v in md.iter("ScalarVariable")}
-print(md.get("guid"), vr["mesh[1].dte"], vr["body[4].tau"], vr["n_bodies"])
+kind = {v.get("name"): next(iter(v)).tag[0] for v in md.iter("ScalarVariable")}
+# The planetary scene's start values for the C program (R|I|B vr value).
+scene = tomllib.load(open("scenes/train/planetary-simple.toml", "rb"))["start_values"]
+with open(f"{work}/planetary.txt", "w") as f:
+    for name, x in scene.items():
+        f.write(f"{kind[name]} {vr[name]} {float(x)!r}\n")
+# The last planet moved a third of a tooth of the sun (z_sun 21) along its orbit.
+last = max(k for k in scene if k.endswith(".orbit_angle"))
+skew = scene[last] + 2 * math.pi / 21 / 3
+print(md.get("guid"), vr["mesh[1].dte"], vr["body[4].tau"], vr["n_bodies"],
+      f"{work}/planetary.txt", vr["mesh[2].dte"], vr[last], repr(skew))
 EOF
 )
 gcc -std=c99 -g -O1 -Wall -Wextra -Werror -I"$inc" tests/c/train_memcheck.c -ldl -lm -o "$work/train_memcheck"
@@ -82,9 +92,9 @@ set -- $args
 tso="$work/binaries/linux64/SpurGearTrain.so"
 tsteps=$((steps / 4))
 echo "== SpurGearTrain: $tsteps steps natively"
-"$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4"
-echo "== SpurGearTrain: $tsteps steps under valgrind (memcheck)"
+"$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" "$5" "$6" "$7" "$8"
+echo "== SpurGearTrain: $tsteps steps under valgrind (memcheck), a planetary set included"
 valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite,indirect \
   --errors-for-leak-kinds=definite,indirect --track-origins=yes \
-  "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4"
+  "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" "$5" "$6" "$7" "$8"
 echo "== valgrind (SpurGearTrain): no memory errors, no definite or indirect leaks"

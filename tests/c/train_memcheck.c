@@ -2,6 +2,7 @@
  * tools/reliability.sh:
  *
  *   train_memcheck <SpurGearTrain.so> <guid> <steps> <vr dte1> <vr tau4> <vr n_bodies>
+ *                  [<planetary set> <vr of its dte>]
  *
  * Loads the library with dlopen and runs: an instance that steps the default train `steps`
  * communication steps of 1e-4 s with outputs read and checked (finite) after every step, a load
@@ -9,7 +10,10 @@
  * second instance, set, continue both bit-identically, free); an instance refused at
  * initialization (a body joined to nothing), reset and run; error paths (unknown value
  * reference, a step before initialization, a NaN input); and frees everything. Exits 0 if every
- * check passed. The value references come from the packaged modelDescription.xml.
+ * check passed. The value references come from the packaged modelDescription.xml. With a
+ * planetary set (a file of lines `R|I|B <vr> <value>`: its start values), a third instance runs
+ * it for `steps` steps, its loops and carrier included, and then a copy with one planet moved
+ * off the assembly condition is refused.
  */
 #include <dlfcn.h>
 #include <math.h>
@@ -48,6 +52,34 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
 }
 
 #define F(name) fmi2##name##TYPE *name = (fmi2##name##TYPE *)dlsym(lib, "fmi2" #name)
+
+/* Sets the start values of a file of lines `R|I|B <vr> <value>`; returns how many failed. With
+ * `skew_vr`, that Real is set to `skew` instead. */
+static int set_all(void *lib, fmi2Component c, const char *path, fmi2ValueReference skew_vr,
+                   double skew) {
+    F(SetReal); F(SetInteger); F(SetBoolean);
+    FILE *f = fopen(path, "r");
+    if (!f) return 1;
+    char kind;
+    unsigned long vr;
+    double x;
+    int bad = 0;
+    while (fscanf(f, " %c %lu %lf", &kind, &vr, &x) == 3) {
+        fmi2ValueReference r = (fmi2ValueReference)vr;
+        if (kind == 'R') {
+            fmi2Real v = (r == skew_vr) ? skew : x;
+            bad += SetReal(c, &r, 1, &v) != fmi2OK;
+        } else if (kind == 'I') {
+            fmi2Integer v = (fmi2Integer)x;
+            bad += SetInteger(c, &r, 1, &v) != fmi2OK;
+        } else {
+            fmi2Boolean v = x != 0.0;
+            bad += SetBoolean(c, &r, 1, &v) != fmi2OK;
+        }
+    }
+    fclose(f);
+    return bad;
+}
 
 int main(int argc, char **argv) {
     if (argc < 7) {
@@ -103,6 +135,35 @@ int main(int argc, char **argv) {
     CHECK(DoStep(c, 0.0, h, fmi2True) == fmi2OK, "a step of c");
     Terminate(c);
     FreeInstance(c);
+
+    if (argc >= 9) {
+        /* A planetary set: the scene's start values, run, then refused off its assembly
+         * condition (the last planet's orbit angle, argv[9], moved by a third of a tooth). */
+        fmi2ValueReference vr_p = (fmi2ValueReference)atol(argv[8]);
+        fmi2Component p = Instantiate("p", fmi2CoSimulation, guid, "", &cb, fmi2False, fmi2True);
+        CHECK(p != NULL, "instantiate p");
+        CHECK(set_all(lib, p, argv[7], 0, 0.0) == 0, "planetary start values");
+        CHECK(SetupExperiment(p, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK, "setup p");
+        CHECK(EnterInitializationMode(p) == fmi2OK && ExitInitializationMode(p) == fmi2OK, "init p");
+        for (long k = 0; k < steps; k++) {
+            CHECK(DoStep(p, (double)k * h, h, fmi2True) == fmi2OK, "step p at %g", (double)k * h);
+            double d = NAN;
+            GetReal(p, &vr_p, 1, &d);
+            CHECK(isfinite(d), "planetary dte at step %ld", k);
+            if (failures > 20) break;
+        }
+        Terminate(p);
+        FreeInstance(p);
+        if (argc >= 11) {
+            fmi2ValueReference vr_orbit = (fmi2ValueReference)atol(argv[9]);
+            p = Instantiate("p", fmi2CoSimulation, guid, "", &cb, fmi2False, fmi2True);
+            CHECK(set_all(lib, p, argv[7], vr_orbit, atof(argv[10])) == 0, "skewed start values");
+            CHECK(SetupExperiment(p, fmi2False, 0.0, 0.0, fmi2False, 0.0) == fmi2OK, "setup p'");
+            CHECK(EnterInitializationMode(p) == fmi2OK, "enter p'");
+            CHECK(ExitInitializationMode(p) == fmi2Error, "a planet off the assembly condition is refused");
+            FreeInstance(p);
+        }
+    }
 
     double t = 0.0;
     for (long k = 0; k < steps; k++, t = (double)k * h) {
