@@ -33,12 +33,14 @@ Functions
                                     held inputs or input derivatives); it evaluates the shaft's
                                     and the engine's laws itself
   run_libcosim_ssp(ssp, h, t_stop), run_fmpy_ssp(ssp, h, t_stop)   the real masters on the .ssp
+  run_omsimulator_ssp(ssp, h, t_stop)                  OMSimulator on the .ssp, if installed
 Every run returns {name: array} on its output grid with "time"; the common names are
 mesh1.dte, mesh2.dte, shaft.tau (the torque the shaft transmits, = train shaft[1].tau),
 w1, w2, w3, w4 (body speeds, forward positive).
 """
 
 import math
+import re
 import shutil
 import sys
 import time as _time
@@ -155,6 +157,11 @@ SSD_NAME = "two_stage"
 # the communication step the .ssd proposes (libcosim's baseStepSize, OMSimulator's stepSize)
 STEP = 1e-5
 OMS_NS = "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"
+# OMSimulator's absoluteTolerance: for its fixed-step master, the bound on the unscaled 2-norm of
+# the algebraic loop's residual (KINSOL's fnormtol), in the loop's own units (N.m, rad, rad/s).
+# At 1e-9 about 7 % of the steps miss it by rounding (warnings); 1e-7 is met at every step of the
+# scene and sits six orders below the coupling's own torque error (docs/omsimulator.md).
+LOOP_TOL = 1e-6
 
 
 def oms_system_annotation(step, rel_tol, indent):
@@ -163,14 +170,15 @@ def oms_system_annotation(step, rel_tol, indent):
     annotation, and without one its import of an .ssp ends in `internal error`.  oms:FixedStepMaster
     makes the system weakly coupled (FMI co-simulation) with its fixed-step master "oms-ma" at
     `step`; relativeTolerance is what it passes to fmi2SetupExperiment (our FMUs take the tighter
-    of it and their rel_tol).  Other tools skip annotations of types they do not know."""
+    of it and their rel_tol), absoluteTolerance its algebraic loop's tolerance (LOOP_TOL).  Other
+    tools skip annotations of types they do not know."""
     i = indent
     return [f"{i}<ssd:Annotations>",
             f'{i}  <ssc:Annotation type="org.openmodelica">',
             f"{i}    <oms:Annotations>",
             f"{i}      <oms:SimulationInformation>",
             f'{i}        <oms:FixedStepMaster description="oms-ma" stepSize="{step:g}" '
-            f'absoluteTolerance="{rel_tol:g}" relativeTolerance="{rel_tol:g}"/>',
+            f'absoluteTolerance="{LOOP_TOL:g}" relativeTolerance="{rel_tol:g}"/>',
             f"{i}      </oms:SimulationInformation>",
             f"{i}    </oms:Annotations>",
             f"{i}  </ssc:Annotation>",
@@ -503,6 +511,35 @@ def run_libcosim_ssp(ssp, h, t_stop):
     return out
 
 
+def run_omsimulator_ssp(ssp, h, t_stop, oms=None):
+    """OMSimulator (cosim/oms_run.py; None when it is not installed) on the .ssp at step h: its
+    fixed-step master "oms-ma" solves the algebraic loop the shaft's and the engine's direct
+    feedthroughs close (KINSOL) at every communication point, so every FMU steps with the
+    others' outputs at the step's start: Jacobi with held inputs, without the extra step of
+    delay of libcosim and FMPy.  Records the RECORDED signals every h (the last row of each
+    time: the solved loop).  "_seconds" wall, "_cpu" the child process's CPU time (import and
+    instantiation included)."""
+    import oms_run
+
+    oms = oms or oms_run.find()
+    if oms is None:
+        return None
+    import tempfile
+
+    names = [f"{SSD_NAME}.{SSD_NAME}.{c}.{v}" for c, v in RECORDED]
+    regex = "^(" + "|".join(re.escape(n) for n in names) + ")$"
+    with tempfile.TemporaryDirectory() as work:
+        res = oms_run.run_api(oms, ssp, t_stop, work, step=h, interval=h, signals=regex)
+    n = int(round(t_stop / h))
+    t = res.columns["time"]
+    if len(t) != n + 1 or not np.allclose(t, h * np.arange(n + 1), rtol=0, atol=1e-9 * h):
+        raise RuntimeError(f"OMSimulator wrote {len(t)} times, expected {n + 1} on a grid of {h}")
+    out = {q: res.columns[name] for q, name in zip(QUANTITIES, names)}
+    out["time"] = t
+    out["_seconds"], out["_cpu"], out["_warnings"] = res.seconds, res.cpu, res.warnings
+    return out
+
+
 def run_fmpy_ssp(ssp, h, t_stop):
     """fmpy.ssp.simulation.simulate_ssp with the .ssd's parameters as its parameter_set (it does
     not read ParameterBindings).  Its rows carry the step's start time and the values at its end:
@@ -555,7 +592,7 @@ def main(argv=None):
     sub.add_parser("ssd", help="write cosim/two-stage.ssd from the scene")
     b = sub.add_parser("ssp", help="zip the .ssd and target/fmu's FMUs into target/cosim/two-stage.ssp")
     b.add_argument("--out", default=str(DEFAULT_SSP))
-    r = sub.add_parser("run", help="run the .ssp in libcosim and FMPy and compare with the train")
+    r = sub.add_parser("run", help="run the .ssp in libcosim, FMPy and OMSimulator (if installed) and compare with the train")
     r.add_argument("ssp", nargs="?", default=str(DEFAULT_SSP))
     r.add_argument("--step", type=float, default=1e-5)
     r.add_argument("--stop", type=float, default=0.01)
@@ -569,8 +606,12 @@ def main(argv=None):
 
         log_output_level(CosimLogLevel.WARNING)
         ref = run_monolithic(fmu_paths()["train"], a.stop, 1e-5 if a.step <= 1e-5 else a.step)
-        for master, fn in (("libcosim", run_libcosim_ssp), ("fmpy", run_fmpy_ssp)):
+        for master, fn in (("libcosim", run_libcosim_ssp), ("fmpy", run_fmpy_ssp),
+                           ("omsimulator", run_omsimulator_ssp)):
             run = fn(a.ssp, a.step, a.stop)
+            if run is None:
+                print(f"{master}: not installed (docs/omsimulator.md)")
+                continue
             e = errors(run, ref)
             print(f"{master}: h = {a.step:g} s, {run['_seconds']:.2f} s wall; max error against the train: "
                   + ", ".join(f"{q} {v:.3g}" for q, v in e.items()))
