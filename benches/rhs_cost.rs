@@ -16,10 +16,17 @@
 //! (issue 30, point 6: within 5 %): 20/60, module 2 mm, xB = 0.5, damped, with friction, at
 //! states over the double-contact zone, interleaved in the same process.
 //!
+//! And a planetary set (issue 31, point 7: at most 1.15 x 8 times one mesh's right-hand side,
+//! plus the bodies' own work): sun 21, four planets 18, ring 57 fixed (module 2 mm, x 0.5 / 0 /
+//! 0.5), 8 meshes at a loaded penetration, against 4 x (sun pair) + 4 x (ring pair) of
+//! `PaperRig::rhs` on the same pairs at the same penetration, interleaved.
+//!
 //! Run: `cargo bench --bench rhs_cost`.
 
 use spur_gear_mesh::model::paper_rig::{DTE, THETA_A};
-use spur_gear_mesh::model::train::{self, Body, MeshPlace, Ripple, Train, TrainSpec};
+use spur_gear_mesh::model::train::{
+    self, Body, MeshPlace, Planet, Ripple, Train, TrainSpec, HOUSING,
+};
 use spur_gear_mesh::model::{PaperRig, State, NY};
 use spur_gear_mesh::variables::{Inputs, Params};
 use std::hint::black_box;
@@ -179,6 +186,94 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
     (t, states)
 }
 
+/// The planetary set and states at 64 positions of the sun over one base pitch; and the
+/// paper rig on its sun pair and on its ring pair at the same penetration.
+#[allow(clippy::type_complexity)]
+fn planetary_setup() -> (Train, Vec<train::State>, [(PaperRig, Vec<State>); 2]) {
+    let delta = 1.5e-6;
+    let pair = |z_a: i32, z_b: i32, x_a: f64, x_b: f64, internal: bool| Params {
+        geometry: 2,
+        module: 0.002,
+        zA: z_a,
+        zB: z_b,
+        xA: x_a,
+        xB: x_b,
+        width: 0.02,
+        backlash: 5e-5,
+        chi: 20.0,
+        mu: 0.05,
+        internal,
+        dte_start: delta,
+        w_A_start: 100.0,
+        w_B_start: 100.0 * z_a as f64 / z_b as f64,
+        ..Params::default()
+    };
+    let (sun, ring) = (pair(21, 18, 0.5, 0.0, false), pair(18, 57, 0.0, 0.5, true));
+    let body = |j: f64, w: f64, planet: Option<Planet>| Body {
+        j,
+        c: 0.0,
+        w_start: w,
+        ripple: Ripple::NONE,
+        planet,
+    };
+    let mut bodies = vec![body(2e-3, 100.0, None), body(0.05, 100.0 * 21.0 / 78.0, None)];
+    let mut meshes = Vec::new();
+    let place = |a: usize, b: usize, params: &Params| MeshPlace {
+        a,
+        b,
+        center_angle: 0.0,
+        mount_a: 0.0,
+        mount_b: 0.0,
+        params: params.clone(),
+    };
+    for k in 0..4 {
+        bodies.push(body(
+            1e-4,
+            0.0,
+            Some(Planet {
+                carrier: 1,
+                orbit_angle: std::f64::consts::FRAC_PI_2 * k as f64,
+                m: 0.3,
+                pin_error_r: 0.0,
+                pin_error_t: 0.0,
+            }),
+        ));
+        meshes.push(place(0, 2 + k, &sun));
+        meshes.push(place(2 + k, HOUSING, &ring));
+    }
+    let spec = TrainSpec {
+        bodies,
+        angle_start: 0.0,
+        shafts: vec![],
+        meshes,
+    };
+    let (t, y0) = Train::new(spec, vec![50.0, 0.0, 0.0, 0.0, 0.0, 0.0], None).unwrap();
+    let p_b = t.meshes[0].geo.p_b;
+    let r_sun = t.meshes[0].geo.r_ab;
+    let states = (0..64)
+        .map(|k| {
+            let mut y = y0;
+            // Coordinate 0 is the sun's angle: the set turns rigidly.
+            y[train::coord_index(0)] += k as f64 / 64.0 * p_b / r_sun;
+            y
+        })
+        .collect();
+    let rig = |p: &Params| {
+        let (m, y0) = PaperRig::new(p, &Inputs::default()).unwrap();
+        let g = m.geo.clone();
+        let st = (0..64)
+            .map(|k| {
+                let mut y = y0;
+                y[THETA_A] += k as f64 / 64.0 * g.p_b / g.r_ab;
+                y[DTE] = delta;
+                y
+            })
+            .collect();
+        (m, st)
+    };
+    (t, states, [rig(&sun), rig(&ring)])
+}
+
 fn time_train(t: &Train, states: &[train::State], reps: usize) -> f64 {
     let mut dy = <train::State as spur_gear_mesh::driver::Vector>::zeros();
     let start = Instant::now();
@@ -267,6 +362,22 @@ fn main() {
             ratio.iter().cloned().fold(0.0, f64::max)
         );
     }
+    let (pt, ps, [(sun, ss), (ring, rs)]) = planetary_setup();
+    let (mut tt, mut ratio) = (Vec::new(), Vec::new());
+    for _ in 0..41 {
+        let single = 4.0 * time(&sun, &ss, 1000) + 4.0 * time(&ring, &rs, 1000);
+        let whole = time_train(&pt, &ps, 1000);
+        tt.push(whole);
+        ratio.push(whole / single);
+    }
+    println!(
+        "Train::rhs, a planetary set of 4 planets (8 meshes, 6 bodies, friction, damping), 41 interleaved repetitions: {:.1} ns, \
+         set / (4 x sun pair + 4 x ring pair of PaperRig::rhs) = {:.3} (median; min {:.3}, max {:.3})",
+        median(tt),
+        median(ratio.clone()),
+        ratio.iter().cloned().fold(f64::INFINITY, f64::min),
+        ratio.iter().cloned().fold(0.0, f64::max)
+    );
     println!("Train::rhs, a chain of n damped paper meshes, against n x PaperRig::rhs (damped), 41 interleaved repetitions:");
     for n in [1, 2, 4, 6] {
         let (t, st) = train_setup(n);

@@ -78,7 +78,7 @@ impl ContactLaw for JohnsonLaw {
         }
     }
     fn energy(&self, delta: f64, _s_a: f64) -> Result<f64, OutOfRange> {
-        Ok(self.width * johnson::energy(delta, self.l + self.kappa * delta, self.e_star)?)
+        Ok(self.width * johnson::energy_along(delta, self.l, self.kappa, self.e_star)?)
     }
     fn energy_slope(&self, _force: f64, _s_a: f64) -> f64 {
         0.0
