@@ -125,8 +125,8 @@ impl Fmu {
                 [(s, 1, b, 21, 18, 0.5, 0.0), (r, b, 0, 18, 57, 0.0, 0.5)]
             {
                 let n = |v: &str| format!("mesh[{m}].{v}");
-                ok(self.set_int(&n("A"), a as i32));
-                ok(self.set_int(&n("B"), bb as i32));
+                ok(self.set_int(&n("A"), a));
+                ok(self.set_int(&n("B"), bb));
                 ok(self.set_int(&n("geometry"), 2));
                 ok(self.set_real(&n("module"), 2e-3));
                 ok(self.set_int(&n("zA"), za));

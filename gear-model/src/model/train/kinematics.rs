@@ -2,15 +2,16 @@
 //! generalized coordinates the integrator uses, and how every body's angle and every mesh's
 //! dte follow from them.
 //!
-//! The coordinates are the angles of the bodies the walk places without an element (its
-//! starts and the carriers), then the walk's steps in order: a placing mesh's dte, a placing
-//! shaft's twist. Each step places one body, so the bodies follow from the coordinates by
-//! forward substitution. A mesh that closes a loop has its dte as a combination of the
-//! steps' coordinates only: rigid rolling leaves it unchanged, so its coefficients on the
-//! free angles vanish, and it keeps full precision however far the bodies turn.
+//! The coordinates are one per body: every mesh's dte that is independent of the others'
+//! (the placing walk's meshes first), then the shafts' twists, then the angles of the
+//! lowest-numbered bodies that complete a basis; the state holds the bodies' angles first.
+//! The bodies follow from the coordinates by the inverse of that linear map. A mesh that is
+//! not a coordinate has its dte as a combination of the meshes' alone (rigid rolling leaves
+//! it unchanged, so its coefficients on the free angles vanish), and it keeps full precision
+//! however far the bodies turn.
 
 use super::placement::{Layout, Start};
-use super::topology::{body_name, Edge, Structure, TrainSpec, HOUSING, MAX_BODIES};
+use super::topology::{body_name, Edge, Structure, TrainSpec, HOUSING};
 use crate::model::geometry::Geometry;
 use crate::model::ModelError;
 use nalgebra::{DMatrix, SymmetricEigen};
@@ -146,7 +147,12 @@ pub struct Coordinates {
     pub rows: Vec<Row>,
     /// Each body's angle over the coordinates (less their offsets): the nonzero entries of
     /// the inverse of the rows' matrix.
-    inverse: Vec<Vec<(usize, f64)>>,
+    pub inverse: Vec<Vec<(usize, f64)>>,
+    /// When the rows can be taken in an order in which each brings one new body (every tree,
+    /// and trains whose loops are closed by meshes that are not coordinates): (coordinate,
+    /// its body, 1 / its coefficient there), a forward substitution as cheap as the rows
+    /// are sparse, where the inverse of a chain is dense.
+    pub substitution: Option<Vec<(usize, usize, f64)>>,
     pub mesh: Vec<Source>,
     pub shaft: Vec<Source>,
     /// d theta_i / d x_k (bodies by coordinates).
@@ -241,6 +247,7 @@ impl Coordinates {
             .lu()
             .try_inverse()
             .expect("the chosen rows are independent");
+        c.substitution = substitution_order(&c.rows, n);
         c.inverse = (0..n)
             .map(|i| {
                 (0..n)
@@ -290,17 +297,27 @@ impl Coordinates {
             .collect();
         Ok(c)
     }
+}
 
-    /// The bodies' values from the coordinates' (angles with the offsets taken off, or
-    /// speeds from rates with `offsets` false).
-    #[inline]
-    pub fn substitute_with(&self, x: &[f64], offsets: bool, theta: &mut [f64; MAX_BODIES + 1]) {
-        let mut d = [0.0; MAX_BODIES];
-        for (k, dk) in d.iter_mut().enumerate().take(x.len()) {
-            *dk = if offsets { x[k] - self.offset[k] } else { x[k] };
-        }
-        for (th, inv) in theta.iter_mut().zip(&self.inverse) {
-            *th = inv.iter().map(|&(k, t)| t * d[k]).sum();
-        }
+/// An order of the rows in which each has exactly one body not known from the rows before.
+fn substitution_order(rows: &[Row], n: usize) -> Option<Vec<(usize, usize, f64)>> {
+    let mut known = vec![false; n];
+    let mut used = vec![false; rows.len()];
+    let mut order = Vec::with_capacity(rows.len());
+    while order.len() < rows.len() {
+        let next = (0..rows.len()).find_map(|k| {
+            if used[k] {
+                return None;
+            }
+            let mut unknown = rows[k].0.iter().filter(|&&(i, c)| !known[i] && c != 0.0);
+            match (unknown.next(), unknown.next()) {
+                (Some(&(i, c)), None) => Some((k, i, 1.0 / c)),
+                _ => None,
+            }
+        })?;
+        used[next.0] = true;
+        known[next.1] = true;
+        order.push(next);
     }
+    Some(order)
 }

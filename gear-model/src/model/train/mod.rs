@@ -3,11 +3,11 @@
 //! It owns the equations of motion and reuses the mesh component for every mesh.
 //!
 //! State: the two quadratures (external work, dissipated energy), then each coordinate and
-//! its rate (`kinematics`): the free bodies' forward angles, then for each step of the
-//! placing walk a mesh's transmission error dte_m (its forward penetration) or a shaft's
-//! twist. As in the single mesh, the penetrations are states of their own, and a mesh that
-//! closes a loop has its dte from them: every dte keeps full precision however far the
-//! bodies turn. The bodies' angles and speeds follow by forward substitution.
+//! its rate (`kinematics`): the free bodies' forward angles, then the independent meshes'
+//! transmission errors dte_m (their forward penetrations) and the shafts' twists. As in the
+//! single mesh, the penetrations are states of their own, and a mesh that closes a loop has
+//! its dte from them: every dte keeps full precision however far the bodies turn. The
+//! bodies' angles and speeds follow by the inverse linear map.
 
 pub mod kinematics;
 pub mod placement;
@@ -288,15 +288,32 @@ impl Train {
     #[inline]
     pub fn bodies(&self, y: &State) -> Bodies {
         let c = &self.cfg.coords;
-        let n = c.coords.len();
-        let (mut x, mut v) = ([0.0; MAX_BODIES], [0.0; MAX_BODIES]);
-        for k in 0..n {
-            x[k] = y[coord_index(k)];
-            v[k] = y[coord_index(k) + 1];
-        }
         let mut b = Bodies::default();
-        c.substitute_with(&x[..n], true, &mut b.theta);
-        c.substitute_with(&v[..n], false, &mut b.w);
+        if let Some(order) = &c.substitution {
+            for &(k, to, inv) in order {
+                let j = coord_index(k);
+                let (mut theta, mut w) = (y[j] - c.offset[k], y[j + 1]);
+                for &(i, r) in &c.rows[k].0 {
+                    if i != to {
+                        theta -= r * b.theta[i];
+                        w -= r * b.w[i];
+                    }
+                }
+                b.theta[to] = theta * inv;
+                b.w[to] = w * inv;
+            }
+            return b;
+        }
+        for (i, inverse) in c.inverse.iter().enumerate() {
+            let (mut theta, mut w) = (0.0, 0.0);
+            for &(k, t) in inverse {
+                let j = coord_index(k);
+                theta += t * (y[j] - c.offset[k]);
+                w += t * y[j + 1];
+            }
+            b.theta[i] = theta;
+            b.w[i] = w;
+        }
         b
     }
 
@@ -385,13 +402,17 @@ impl Train {
             p_loss: 0.0,
             housing: 0.0,
         };
+        // Off a carrier nothing is booked on the housing's slot: a store there every body
+        // and mesh would chain the loop through memory (benches/rhs_cost.rs).
         for (i, body) in c.spec.bodies.iter().enumerate() {
             let tau = self.loads.tau[i] + body.ripple.torque(b.theta[i]);
             let (carrier, rel) = c.body_carrier[i];
             let w_rel = b.w[i] - rel * b.w[carrier];
             let drag = body.c * w_rel;
             t.on[i] += tau - drag;
-            t.on[carrier] += rel * drag;
+            if carrier != HOUSING {
+                t.on[carrier] += rel * drag;
+            }
             t.p_ext += tau * b.w[i] - drag * w_rel;
         }
         let st = &c.structure;
@@ -399,13 +420,16 @@ impl Train {
             let load = mesh.compliant_load(&self.kin(m, y, b), None)?;
             t.on[l.a] += load.tq_a;
             t.on[l.b] += load.tq_b;
-            t.on[l.carrier] -= l.rel_a * load.tq_a + l.rel_b * load.tq_b;
-            let (sa, sb) = st.mesh_sense[m];
-            if l.a == HOUSING {
-                t.housing += sa * load.tq_a;
+            if l.carrier != HOUSING {
+                t.on[l.carrier] -= l.rel_a * load.tq_a + l.rel_b * load.tq_b;
             }
-            if l.b == HOUSING {
-                t.housing += sb * load.tq_b;
+            if l.a == HOUSING || l.b == HOUSING {
+                let (sa, sb) = st.mesh_sense[m];
+                t.housing += if l.a == HOUSING {
+                    sa * load.tq_a
+                } else {
+                    sb * load.tq_b
+                };
             }
             t.p_ext += load.p_param;
             t.p_loss += load.p_loss;
