@@ -279,6 +279,12 @@ impl TrainSpec {
                     cc + 1
                 ));
             }
+        }
+        // After the carriers' own rules, so that a carried carrier is named as such.
+        for i in 0..n {
+            let Some(c) = self.carrier_of(i) else {
+                continue;
+            };
             if !self.meshes.iter().any(|mp| mp.a == i || mp.b == i) {
                 return err(format!(
                     "body[{}] is a planet of body[{}] but no mesh names it: a planet turns only through its meshes",
@@ -417,6 +423,40 @@ impl TrainSpec {
         sense
     }
 
+    /// The elements of a shortest chain from body a to body b that avoids `skip` and the
+    /// housing (for messages).
+    fn path(&self, a: usize, b: usize, skip: Edge) -> Vec<Edge> {
+        let mut from: Vec<Option<(usize, Edge)>> = vec![None; self.bodies.len()];
+        let mut queue = std::collections::VecDeque::from([a]);
+        while let Some(i) = queue.pop_front() {
+            if i == b {
+                break;
+            }
+            for e in self.edges().filter(|&e| e != skip) {
+                let (p, q) = self.ends(e);
+                let to = if p == i {
+                    q
+                } else if q == i {
+                    p
+                } else {
+                    continue;
+                };
+                if to != HOUSING && to != a && from[to].is_none() {
+                    from[to] = Some((i, e));
+                    queue.push_back(to);
+                }
+            }
+        }
+        let mut path = Vec::new();
+        let mut i = b;
+        while let Some((prev, e)) = from[i] {
+            path.push(e);
+            i = prev;
+        }
+        path.reverse();
+        path
+    }
+
     /// Whether an edge turns its two ends opposite ways (an external mesh).
     pub fn flips(&self, e: Edge) -> bool {
         matches!(e, Edge::Mesh(m) if !self.meshes[m].params.internal)
@@ -451,9 +491,15 @@ impl Structure {
                     Edge::Mesh(_) => "an internal mesh turns its gears the same way",
                     Edge::Shaft(_) => "a shaft turns its ends the same way",
                 };
+                let path = spec
+                    .path(a, b, e)
+                    .iter()
+                    .map(|p| p.name())
+                    .collect::<Vec<_>>();
                 return Err(ModelError::new(format!(
-                    "{} closes a loop whose senses conflict: the other elements turn body[{}] {} and body[{}] {} when the train is driven forward, but {how}; such a loop cannot turn",
+                    "{} closes a loop whose senses conflict: the other elements ({}) turn body[{}] {} and body[{}] {} when the train is driven forward, but {how}; such a loop cannot turn",
                     e.name(),
+                    path.join(", "),
                     a + 1,
                     turn(self.sense[a]),
                     b + 1,
