@@ -220,9 +220,15 @@ mod tests {
             }
             simpson *= h / 3.0;
             let along = energy_along(d, l, kappa, E_STAR).unwrap();
-            assert!((along - simpson).abs() <= 1e-9 * simpson, "{kappa}: {along} vs {simpson}");
+            assert!(
+                (along - simpson).abs() <= 1e-9 * simpson,
+                "{kappa}: {along} vs {simpson}"
+            );
             let fixed = energy(d, l + kappa * d, E_STAR).unwrap();
-            assert!((fixed - simpson).abs() > 1e2 * (along - simpson).abs(), "{fixed} vs {simpson}");
+            assert!(
+                (fixed - simpson).abs() > 1e2 * (along - simpson).abs(),
+                "{fixed} vs {simpson}"
+            );
             let e = 1e-12;
             let slope = (energy_along(d + e, l, kappa, E_STAR).unwrap()
                 - energy_along(d - e, l, kappa, E_STAR).unwrap())
