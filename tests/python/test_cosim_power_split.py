@@ -20,8 +20,8 @@ set, the vehicle on the ring) with EngineTorque on the carrier and SpeedControll
    -1, ring +1) holds within the meshes' compliance at every communication point: its residual R
    equals 2 (dte_rate[n] + dte_rate[n + 4]) / (m cos alpha0) for each planet n to rounding, so
    |R| <= (2 / (m cos alpha0)) min_n (|dte_rate[n]| + |dte_rate[n + 4]|).
-5. OMSimulator (skipped when it is not installed, as in CI): the .ssp runs without a warning, it is
-   our own master with the loop solved at the communication points (delay 0) to the rounding of its
+5. OMSimulator (skipped when it is not installed, as in CI): the .ssp runs without a warning, its
+   stepping loop is the engine's feedthrough (train and engine), it is our own master with the loop solved at the communication points (delay 0) to the rounding of its
    12-digit result file, and 3. and 4. hold there.
 Each run: h = 1e-4 s, 0 to 0.1 s (about 1 s of CPU per master).
 """
@@ -156,6 +156,11 @@ def test_willis_holds_within_the_meshes_compliance_at_every_point(runs, master):
 def test_omsimulator_runs_the_ssp_as_jacobi_with_the_loop_solved(runs, ssp):
     r = P.run_omsimulator_ssp(ssp, H, T, OMS)
     assert r["_warnings"] == 0, r["_log"][-3000:]
+    # two loops: at initialization with the generator (its initial torque depends on its input),
+    # then, for the steps, the engine's feedthrough between it and the train
+    loops = re.findall(r"Alg\. loop \(size (\d+)/\d+\)\s*\n((?:\s+\S+\n)+)", r["_log"])
+    assert loops, r["_log"][-3000:]
+    assert {line.strip().rsplit(".", 1)[-1] for line in loops[-1][1].splitlines()} == {"train", "engine"}
     own = runs["own"]
     for q in ["body[1].w", "body[2].w", "body[3].w", "mesh[1].dte", "E_kin", "held.sun", "held.carrier"]:
         scale = float(np.max(np.abs(own[q])))
