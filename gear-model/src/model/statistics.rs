@@ -164,7 +164,9 @@ fn peak(
         return Ok(best);
     }
     let (mut lo, mut hi) = (ts[i - 1], ts[i + 1]);
-    let tol = 1e-6 * (ts[ts.len() - 1] - ts[0]);
+    // 1e-6 of the piece, but no finer than the times' own spacing: a piece of a few ulp
+    // (events close together) would otherwise never narrow below its tolerance.
+    let tol = (1e-6 * (ts[ts.len() - 1] - ts[0])).max(8.0 * f64::EPSILON * hi.abs().max(lo.abs()));
     const R: f64 = 0.618_033_988_749_894_9;
     let (mut x1, mut x2) = (hi - R * (hi - lo), lo + R * (hi - lo));
     let (mut f1, mut f2) = (f(x1)?, f(x2)?);
@@ -209,5 +211,18 @@ mod tests {
         let v: Vec<f64> = ts.iter().map(|&t| f(t).unwrap()).collect();
         let p = peak(&ts, &v, &f).unwrap();
         assert!(p <= 1.0 && 1.0 - p <= 1e-12, "{p}");
+    }
+
+    /// A piece a few ulp long (two events a hair apart at t = 0.01 s): the search ends, where
+    /// a tolerance of 1e-6 of the piece lies below the times' spacing and never would.
+    #[test]
+    fn golden_section_ends_on_a_piece_of_a_few_ulp() {
+        let t0 = 0.01;
+        let h = 16.0 * f64::EPSILON * t0;
+        let f = |t: f64| Ok(-(t - t0 - 0.4 * h).abs());
+        let ts: Vec<f64> = (0..7).map(|k| t0 + h * k as f64 / 6.0).collect();
+        let v: Vec<f64> = ts.iter().map(|&t| f(t).unwrap()).collect();
+        let p = peak(&ts, &v, &f).unwrap();
+        assert!(p <= 0.0 && p >= -h, "{p}");
     }
 }
