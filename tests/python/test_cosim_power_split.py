@@ -111,7 +111,12 @@ def test_the_ssd_is_the_scene_and_what_omsimulator_imports(fmus, tmp_path):
         "regenerate with `python cosim/power_split.py ssd`"
 
 
-def _same(a, b, rel):
+def _same(a, b, rel=10 * P.REL_TOL):
+    """The same scheme in two masters: the same calls, at communication times that may differ
+    by rounding (t = k h against a sum of steps), so each run lies within the train's
+    integration error of the exact coupled solution: local errors of rel_tol relative to the
+    state, accumulated over a run of damped vibrations, allowed ten times. The earlier bound of
+    1e-10 lay below rel_tol = 1e-9 and held only while both runs rounded alike."""
     for q in ["body[1].w", "body[2].w", "body[3].w", "body[1].theta", "body[2].theta", "mesh[1].dte",
               "mesh[5].dte", "E_kin", "W_loss", "held.sun", "held.carrier"]:
         scale = float(np.max(np.abs(a[q])))
@@ -120,14 +125,14 @@ def _same(a, b, rel):
 
 
 def test_libcosim_is_jacobi_with_the_engine_one_step_late(runs):
-    _same(runs["libcosim"], runs["own_delayed"], 1e-10)
+    _same(runs["libcosim"], runs["own_delayed"])
 
 
 def test_fmpy_is_jacobi_with_the_engine_one_step_late_and_a_zero_start(runs):
     r = runs["fmpy"]
     assert r["held.sun"][0] == r["held.carrier"][0] == 0.0
     assert r["held.sun"][1] == P.TAU_MAX      # its generator sampled w = 0 in the first step
-    _same(r, runs["own_fmpy"], 1e-10)
+    _same(r, runs["own_fmpy"])
 
 
 @pytest.mark.parametrize("master", list(SCHEMES))
