@@ -43,14 +43,49 @@ pub type Snapshot = rig_fmu::Snapshot<TrainRig>;
 pub struct Cache {
     /// Each output's source, from its name.
     sources: Vec<(Var, Source)>,
+    /// The same per element (bodies, shafts, meshes), so that a step writes only the outputs
+    /// of the elements in use.
+    per_body: Vec<Vec<(Var, Source)>>,
+    per_shaft: Vec<Vec<(Var, Source)>>,
+    per_mesh: Vec<Vec<(Var, Source)>>,
+    /// The element counts the outputs were last written for: the others read 0 and need no
+    /// writing until the counts change.
+    written: std::cell::Cell<Option<(usize, usize, usize)>>,
     /// The inputs' and tunables' variables.
     load_vars: build::LoadVars,
 }
 
 impl Default for Cache {
     fn default() -> Cache {
+        let sources = sources();
+        let group = |n: usize, of: &dyn Fn(Source) -> Option<usize>| {
+            let mut g = vec![Vec::new(); n];
+            for &(v, s) in &sources {
+                if let Some(i) = of(s) {
+                    g[i].push((v, s));
+                }
+            }
+            g
+        };
         Cache {
-            sources: sources(),
+            per_body: group(train::MAX_BODIES, &|s| match s {
+                Source::BodyTheta(i) | Source::BodyW(i) => Some(i),
+                _ => None,
+            }),
+            per_shaft: group(train::MAX_SHAFTS, &|s| match s {
+                Source::ShaftTau(j) | Source::ShaftTwist(j) => Some(j),
+                _ => None,
+            }),
+            per_mesh: group(train::MAX_MESHES, &|s| match s {
+                Source::Mesh(m, sv)
+                    if sv.info().causality != single::Causality::CalculatedParameter =>
+                {
+                    Some(m)
+                }
+                _ => None,
+            }),
+            sources,
+            written: std::cell::Cell::new(None),
             load_vars: build::LoadVars::default(),
         }
     }
@@ -124,14 +159,17 @@ fn fresh_simulation(
     Ok(sim)
 }
 
-/// Every output at state y, with each mesh's statistics and the integration's counters.
+/// Every output at state y, with each mesh's statistics and the integration's counters,
+/// written in place: the elements in use, and the others' zeros once (the outputs are several
+/// kilobytes at full capacity, read after every communication step).
 fn write_outputs(
     train: &Train,
     y: &State,
     stats: Option<Vec<Statistics>>,
     st: &Stats,
-    sources: &[(Var, Source)],
-) -> Result<Outputs, String> {
+    cache: &Cache,
+    o: &mut Outputs,
+) -> Result<(), String> {
     let b = train.bodies(y);
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
     for m in 0..train.meshes.len() {
@@ -145,9 +183,18 @@ fn write_outputs(
         o.P_loss = r.p_loss;
         per_mesh.push(o);
     }
-    let mut o = Outputs::default();
     let (n_bodies, n_shafts) = (train.spec().bodies.len(), train.spec().shafts.len());
-    for &(v, s) in sources {
+    let counts = (n_bodies, n_shafts, per_mesh.len());
+    if cache.written.get() != Some(counts) {
+        *o = Outputs::default();
+        cache.written.set(Some(counts));
+    }
+    let in_use = cache.per_body[..n_bodies]
+        .iter()
+        .chain(&cache.per_shaft[..n_shafts])
+        .chain(&cache.per_mesh[..per_mesh.len()])
+        .flatten();
+    for &(v, s) in in_use {
         match s {
             Source::BodyTheta(i) if i < n_bodies => o.set_real(v, b.theta[i]),
             Source::BodyW(i) if i < n_bodies => o.set_real(v, b.w[i]),
@@ -177,7 +224,7 @@ fn write_outputs(
     o.n_rhs_evaluations = saturate(st.rhs_evals);
     o.n_jacobians = saturate(st.jac_evals);
     o.n_factorizations = saturate(st.factorizations);
-    Ok(o)
+    Ok(())
 }
 
 impl Rig for TrainRig {
@@ -224,17 +271,16 @@ impl Rig for TrainRig {
         out: &mut Outputs,
         cache: &Cache,
     ) -> Result<(), String> {
-        *out = match run {
+        match run {
             Run::Exchange(ex) => {
                 let stats = ex.rig.stats.clone();
-                write_outputs(&ex.rig, &ex.y, stats, &ex.stats, &cache.sources)
+                write_outputs(&ex.rig, &ex.y, stats, &ex.stats, cache, out)
             }
             Run::Sim(sim) => {
                 let (y, stats) = (sim.state(), sim.statistics());
-                write_outputs(&sim.train, &y, stats, &sim.driver.stats, &cache.sources)
+                write_outputs(&sim.train, &y, stats, &sim.driver.stats, cache, out)
             }
-        }?;
-        Ok(())
+        }
     }
 
     /// The locals (the states that are not outputs, and every state's derivative) at state y:
