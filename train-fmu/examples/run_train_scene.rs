@@ -167,8 +167,10 @@ fn grid(c: &Config) -> Vec<f64> {
         .collect()
 }
 
-/// The reference's columns for the train's counts (train_ref.output_names without time).
-fn default_columns(nb: i32, ns: i32, nm: i32) -> Vec<String> {
+/// The reference's columns for the train's counts (train_ref.output_names without time);
+/// `general`: a planetary train (the housing named, a carrier, or a loop), which has
+/// housing.tau too.
+fn default_columns(nb: i32, ns: i32, nm: i32, general: bool) -> Vec<String> {
     let mut names = vec![];
     for i in 1..=nb {
         names.push(format!("body[{i}].theta"));
@@ -183,6 +185,9 @@ fn default_columns(nb: i32, ns: i32, nm: i32) -> Vec<String> {
         ] {
             names.push(format!("mesh[{m}].{v}"));
         }
+    }
+    if general {
+        names.push("housing.tau".into());
     }
     for v in [
         "E_kin",
@@ -424,7 +429,14 @@ fn main() {
             n(&mut s, "n_shafts"),
             n(&mut s, "n_meshes"),
         );
-        default_columns(nb, ns, nm)
+        let named_housing = (1..=nm).any(|m| {
+            n(&mut s, &format!("mesh[{m}].A")) == 0 || n(&mut s, &format!("mesh[{m}].B")) == 0
+        }) || (1..=ns).any(|j| {
+            n(&mut s, &format!("shaft[{j}].a")) == 0 || n(&mut s, &format!("shaft[{j}].b")) == 0
+        });
+        let carried = (1..=nb).any(|i| n(&mut s, &format!("body[{i}].carrier")) != 0);
+        let general = named_housing || carried || ns + nm > nb - 1;
+        default_columns(nb, ns, nm, general)
     });
     let logger = Logger::new(
         None,
