@@ -697,11 +697,6 @@ def layout(params: dict) -> dict:
             f"fixed)")
     starts, placed, loops = _placing_walk(parsed, topo)
     lay.update(starts=starts, placed=placed, loops=loops)
-    # Model Exchange coordinates (coordinate[k].value/.rate): the free bodies' angles, then each
-    # placed body's placing mesh dte or shaft twist, in the order of the walk
-    lay["coordinates"] = ([f"body[{i}].theta" for i in starts]
-                          + [f"{lbl}.{'dte' if lbl.startswith('mesh') else 'twist'} (places "
-                             f"body {i})" for i, lbl in placed])
     lay["psi1"] = lay["angle_start"]
     if topo["general"] and topo["root"] == HOUSING:
         lay["psi1"] = _reference_psi1(parsed)
