@@ -249,7 +249,7 @@ def write_ssd(path=SSD, rel_tol=REL_TOL):
 
 
 def ssd_parameters(ssd=SSD):
-    """{component: {name: value}} from the .ssd's ParameterBindings (as cosim/speed_loop.py)."""
+    """{component: {name: value}} from the .ssd's ParameterBindings, Booleans included."""
     import xml.etree.ElementTree as ET
 
     ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -258,7 +258,7 @@ def ssd_parameters(ssd=SSD):
     for comp in ET.parse(ssd).getroot().iterfind("ssd:System/ssd:Elements/ssd:Component", ns):
         vals = out.setdefault(comp.get("name"), {})
         for p in comp.iterfind(".//ssv:Parameter", ns):
-            for typ, conv in (("Real", float), ("Integer", int)):
+            for typ, conv in (("Real", float), ("Integer", int), ("Boolean", lambda x: x == "true")):
                 e = p.find(f"ssv:{typ}", ns)
                 if e is not None:
                     vals[p.get("name")] = conv(e.get("value"))

@@ -211,20 +211,8 @@ def write_ssd(path=SSD, rel_tol=REL_TOL):
 
 
 def ssd_parameters(ssd=SSD):
-    """{component: {name: value}} from the .ssd's ParameterBindings, Booleans included."""
-    import xml.etree.ElementTree as ET
-
-    ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
-          "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues"}
-    out = {}
-    for comp in ET.parse(ssd).getroot().iterfind("ssd:System/ssd:Elements/ssd:Component", ns):
-        vals = out.setdefault(comp.get("name"), {})
-        for p in comp.iterfind(".//ssv:Parameter", ns):
-            for typ, conv in (("Real", float), ("Integer", int), ("Boolean", lambda x: x == "true")):
-                e = p.find(f"ssv:{typ}", ns)
-                if e is not None:
-                    vals[p.get("name")] = conv(e.get("value"))
-    return out
+    """{component: {name: value}} from the .ssd's ParameterBindings (drivetrain's reader)."""
+    return D.ssd_parameters(ssd)
 
 
 def fmu_paths():

@@ -402,8 +402,7 @@ impl Train {
             p_loss: 0.0,
             housing: 0.0,
         };
-        // Off a carrier nothing is booked on the housing's slot: a store there every body
-        // and mesh would chain the loop through memory (benches/rhs_cost.rs).
+        // Off a carrier nothing is booked on the housing's slot (benches/rhs_cost.rs).
         for (i, body) in c.spec.bodies.iter().enumerate() {
             let tau = self.loads.tau[i] + body.ripple.torque(b.theta[i]);
             let (carrier, rel) = c.body_carrier[i];
