@@ -8,8 +8,6 @@ use spur_gear_mesh::driver::{Driver, EventOutcome, Method, System, Tolerance};
 
 /// The toys' state: position and velocity.
 type State = [f64; 2];
-/// Floor and ceiling.
-type Margins = [f64; 2];
 
 /// The toys never fail.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -67,7 +65,6 @@ impl Toy {
 
 impl System for Toy {
     type State = State;
-    type Margins = Margins;
     type Error = Never;
     type Report = Hit;
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), Never> {
@@ -78,7 +75,11 @@ impl System for Toy {
         };
         Ok(())
     }
-    fn event_margins(&self, y: &State, out: &mut Margins) {
+    /// Floor and ceiling.
+    fn n_events(&self) -> usize {
+        2
+    }
+    fn event_margins(&self, y: &State, out: &mut [f64]) {
         for (i, m) in out.iter_mut().enumerate() {
             *m = self.value(i, y).map_or(1.0, |v| v.0);
         }
@@ -87,8 +88,8 @@ impl System for Toy {
         &self,
         y: &State,
         _dy: &State,
-        margins: &mut Margins,
-        rates: &mut Margins,
+        margins: &mut [f64],
+        rates: &mut [f64],
     ) {
         for i in 0..2 {
             (margins[i], rates[i]) = self.value(i, y).unwrap_or((1.0, 0.0));

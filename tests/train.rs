@@ -3,10 +3,11 @@
 
 use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::driver::train_simulation::TrainSimulation;
+use spur_gear_mesh::model::contact::{BASE_EVENTS, N_EVENTS};
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::mesh::Placement;
 use spur_gear_mesh::model::train::{
-    placement, Body, MeshPlace, Ripple, Shaft, State, Train, TrainSpec,
+    placement, Body, MeshPlace, Ripple, Shaft, State, Train, TrainSpec, N_MARGINS,
 };
 use spur_gear_mesh::variables::{Inputs, Params};
 
@@ -255,6 +256,54 @@ fn every_mesh_turns_in_the_ratio_of_its_tooth_counts() {
     }
     // Speeds stay positive and the shaft twists under the load it carries.
     assert!(b1.w.iter().take(4).all(|&w| w > 0.0));
+}
+
+/// What a train does not use costs nothing per step (planetary.md §5): the driver's event
+/// functions are those of the meshes in use, each mesh's as many as it can trigger (16 without
+/// shape deviations, 32 with pitch errors), not the capacity's 16 x 32. Model Exchange's
+/// indicators keep the capacity's layout, which their names give, with the same values and +1
+/// where nothing is in use. `margin(i)` evaluates one active function by another code path: it
+/// agrees to rounding (1e-12 of the margin, a length of millimetres or a factor of order 1).
+#[test]
+fn only_the_event_functions_in_use_are_carried() {
+    let mut spec = reducer(1e5);
+    spec.meshes[1].params.pitch_errors_A = (0..22)
+        .map(|k| format!("{:e}", 1.5e-7 * (k as f64 * 0.9).sin()))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let (sim, ys) = run_train(spec, vec![100.0, 0.0, 0.0, 0.0], 1e-8, 1e-3, 20);
+    let t = &sim.train;
+    assert_eq!(t.n_event_fns(), BASE_EVENTS + N_EVENTS);
+    for y in &ys {
+        let mut packed = vec![f64::NAN; t.n_event_fns()];
+        t.event_margins(y, &mut packed);
+        let mut z = vec![f64::NAN; N_MARGINS];
+        t.event_indicators(y, &mut z);
+        for (i, &m) in packed.iter().enumerate() {
+            let (mesh, e) = t.event_of(i);
+            let expected = if i < BASE_EVENTS {
+                (0, i)
+            } else {
+                (1, i - BASE_EVENTS)
+            };
+            assert_eq!((mesh, e), expected);
+            assert_eq!(
+                z[mesh * N_EVENTS + e].to_bits(),
+                m.to_bits(),
+                "indicator of {i}"
+            );
+            // The driver asks `margin(i)` only of active functions (inactive ones read +1).
+            if m != 1.0 {
+                let one = t.margin(i, y);
+                assert!(
+                    (one - m).abs() <= 1e-12 * m.abs().max(1.0),
+                    "{i}: {one} against {m}"
+                );
+            }
+        }
+        let unused = (BASE_EVENTS..N_EVENTS).chain(2 * N_EVENTS..N_MARGINS);
+        assert!(unused.into_iter().all(|k| z[k] == 1.0));
+    }
 }
 
 /// Energy (gear-train.md §5): with mu = 0 and no damping anywhere, kinetic and elastic energy

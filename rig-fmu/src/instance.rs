@@ -10,7 +10,7 @@ use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::logging::LOG_EVENTS;
 use fmi2_slave::{error, Boolean, EventUpdate, Failure, Logger, Slave, Status, ValueReference};
 use gear_model::driver::exchange::{EventError, Exchange, ExchangeRig};
-use gear_model::driver::{DriverError, System, Vector};
+use gear_model::driver::DriverError;
 use serde::{Deserialize, Serialize};
 
 /// The debug category of the integrator's statistics.
@@ -589,9 +589,7 @@ impl<R: Rig> Slave for RigInstance<R> {
 
     fn me_event_indicators(&mut self, z: &mut [f64]) -> Result<(), Failure> {
         let (m, y) = self.point()?;
-        let mut margins = <Model<R> as System>::Margins::zeros();
-        m.event_margins(&y, &mut margins);
-        z.copy_from_slice(margins.as_slice());
+        m.event_indicators(&y, z);
         Ok(())
     }
 

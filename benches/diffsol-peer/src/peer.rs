@@ -143,19 +143,20 @@ pub fn locate(
     interp: &dyn Fn(f64) -> State,
 ) -> Option<Pending> {
     let tm = 0.5 * (t0 + t1);
-    let mut end = [0.0; N_EVENTS];
-    let mut mid = [0.0; N_EVENTS];
-    System::event_margins(sys, y1, &mut end);
+    let n = System::n_events(sys);
+    let (mut end, mut mid) = ([0.0; N_EVENTS], [0.0; N_EVENTS]);
+    let (end, mid) = (&mut end[..n], &mut mid[..n]);
+    System::event_margins(sys, y1, end);
     if end.iter().all(|&m| m >= 0.0) {
-        System::event_margins(sys, &interp(tm), &mut mid);
+        System::event_margins(sys, &interp(tm), mid);
         if mid.iter().all(|&m| m >= 0.0) {
             return None;
         }
     } else {
-        System::event_margins(sys, &interp(tm), &mut mid);
+        System::event_margins(sys, &interp(tm), mid);
     }
     let mut best: Option<Pending> = None;
-    for i in 0..N_EVENTS {
+    for i in 0..n {
         let (b, fb) = if mid[i] < 0.0 {
             (tm, mid[i])
         } else if end[i] < 0.0 {

@@ -27,14 +27,13 @@ impl<const M: usize> Row<M> {
         s
     }
 
-    /// y + h sum_j a_j k[j] over the first n components (the rest stay as in y).
+    /// out = y + h sum_j a_j k[j] over the first n components; the rest of `out` is left as
+    /// it is (a copy of y's: components past n never change).
     #[inline(always)]
-    fn step_from<Y: Vector>(&self, y: &Y, h: f64, k: &[Y], n: usize) -> Y {
-        let mut out = *y;
+    fn step_into<Y: Vector>(&self, out: &mut Y, y: &Y, h: f64, k: &[Y], n: usize) {
         for i in 0..n {
-            out[i] += h * self.dot(k, i);
+            out[i] = y[i] + h * self.dot(k, i);
         }
-        out
     }
 }
 
@@ -375,18 +374,32 @@ impl<Y: Vector> Dop853<Y> {
         k: &mut [Y; 16],
     ) -> Result<(Y, f64), S::Error> {
         let (y, n) = (&self.y, sys.dim());
-        sys.rhs(&A2.step_from(y, h, &k[..], n), &mut k[1])?;
-        sys.rhs(&A3.step_from(y, h, &k[..], n), &mut k[2])?;
-        sys.rhs(&A4.step_from(y, h, &k[..], n), &mut k[3])?;
-        sys.rhs(&A5.step_from(y, h, &k[..], n), &mut k[4])?;
-        sys.rhs(&A6.step_from(y, h, &k[..], n), &mut k[5])?;
-        sys.rhs(&A7.step_from(y, h, &k[..], n), &mut k[6])?;
-        sys.rhs(&A8.step_from(y, h, &k[..], n), &mut k[7])?;
-        sys.rhs(&A9.step_from(y, h, &k[..], n), &mut k[8])?;
-        sys.rhs(&A10.step_from(y, h, &k[..], n), &mut k[9])?;
-        sys.rhs(&A11.step_from(y, h, &k[..], n), &mut k[10])?;
-        sys.rhs(&A12.step_from(y, h, &k[..], n), &mut k[11])?;
-        let y1 = B.step_from(y, h, &k[..], n);
+        // The stages' arguments share one buffer that starts as y (`step_into`).
+        let mut arg = *y;
+        A2.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[1])?;
+        A3.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[2])?;
+        A4.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[3])?;
+        A5.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[4])?;
+        A6.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[5])?;
+        A7.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[6])?;
+        A8.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[7])?;
+        A9.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[8])?;
+        A10.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[9])?;
+        A11.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[10])?;
+        A12.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[11])?;
+        let mut y1 = *y;
+        B.step_into(&mut y1, y, h, &k[..], n);
         let (mut s5, mut s3, mut count) = (0.0, 0.0, 0);
         for i in (0..Y::LEN).filter(|&i| tol.atol[i] > 0.0) {
             let sk = tol.atol[i] + tol.rtol * y[i].abs().max(y1[i].abs());
@@ -405,22 +418,28 @@ impl<Y: Vector> Dop853<Y> {
     }
 
     /// After an accepted step: the rate at its end into k[12], the three extra stages, and the
-    /// continuous extension.
+    /// continuous extension into `rcont` (only once every stage succeeded).
     fn dense<S: System<State = Y>>(
-        &self,
+        &mut self,
         sys: &S,
         h: f64,
         y1: &Y,
         k: &mut [Y; 16],
-    ) -> Result<[Y; 8], S::Error> {
+    ) -> Result<(), S::Error> {
         let (y, n) = (&self.y, sys.dim());
         sys.rhs(y1, &mut k[12])?;
-        sys.rhs(&A14.step_from(y, h, &k[..], n), &mut k[13])?;
-        sys.rhs(&A15.step_from(y, h, &k[..], n), &mut k[14])?;
-        sys.rhs(&A16.step_from(y, h, &k[..], n), &mut k[15])?;
-        let mut r = [Y::zeros(); 8];
-        r[0] = *y;
+        let mut arg = *y;
+        A14.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[13])?;
+        A15.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[14])?;
+        A16.step_into(&mut arg, y, h, &k[..], n);
+        sys.rhs(&arg, &mut k[15])?;
+        // In place: past n, rcont[0] holds y's constant components and the others 0
+        // (`restart`).
+        let r = &mut self.rcont;
         for i in 0..n {
+            r[0][i] = y[i];
             let dy = y1[i] - y[i];
             r[1][i] = dy;
             r[2][i] = h * k[0][i] - dy;
@@ -430,7 +449,7 @@ impl<Y: Vector> Dop853<Y> {
             r[6][i] = h * D6.dot(&k[..], i);
             r[7][i] = h * D7.dot(&k[..], i);
         }
-        Ok(r)
+        Ok(())
     }
 
     /// One accepted step of at most h_max.
@@ -455,7 +474,7 @@ impl<Y: Vector> Dop853<Y> {
                 Ok((y1, err)) if err <= 1.0 => {
                     let dense = self.dense(sys, h, &y1, &mut k);
                     stats.rhs_evals += 4;
-                    dense.map(|r| (y1, err, r))
+                    dense.map(|()| (y1, err))
                 }
                 Ok((_, err)) => {
                     stats.rejected += 1;
@@ -476,7 +495,7 @@ impl<Y: Vector> Dop853<Y> {
                 Err(e) => Err(e),
             };
             match accepted {
-                Ok((y1, err, r)) => {
+                Ok((y1, err)) => {
                     // PI control as Hairer's DOP853 with beta = 0.04 (as dopri5.rs):
                     // err^(1/8 - 0.2 beta) / facold^beta, the step within [h/3, 6h], and no
                     // growth right after a rejection. Without the memory (beta = 0) every
@@ -487,7 +506,6 @@ impl<Y: Vector> Dop853<Y> {
                     let h_new = h / fac;
                     self.h = if self.rejected { h_new.min(h) } else { h_new };
                     self.rejected = false;
-                    self.rcont = r;
                     self.t_prev = self.t;
                     self.t += h;
                     self.y = y1;
@@ -673,7 +691,6 @@ mod tests {
 
     impl System for Predator {
         type State = [f64; 2];
-        type Margins = [f64; 1];
         type Error = Never;
         type Report = NoEvent;
         fn rhs(&self, y: &[f64; 2], dy: &mut [f64; 2]) -> Result<(), Never> {
@@ -681,17 +698,17 @@ mod tests {
             dy[1] = y[1] * (y[0] - 1.0);
             Ok(())
         }
-        fn event_margins(&self, _y: &[f64; 2], out: &mut [f64; 1]) {
-            out[0] = 1.0;
+        fn n_events(&self) -> usize {
+            0
         }
+        fn event_margins(&self, _y: &[f64; 2], _out: &mut [f64]) {}
         fn event_margins_and_rates(
             &self,
             _y: &[f64; 2],
             _dy: &[f64; 2],
-            m: &mut [f64; 1],
-            r: &mut [f64; 1],
+            _m: &mut [f64],
+            _r: &mut [f64],
         ) {
-            (m[0], r[0]) = (1.0, 0.0);
         }
         fn margin(&self, _i: usize, _y: &[f64; 2]) -> f64 {
             1.0

@@ -56,19 +56,18 @@ pub struct Dopri5<Y> {
     pub facold: f64,
 }
 
-/// y + h sum(a k) over the first n components (the rest stay as in y). The term count is a
-/// constant so that the loop over terms unrolls; inlined, so each stage's sum is straight code.
+/// out = y + h sum(a k) over the first n components; the rest of `out` is left as it is (a
+/// copy of y's: components past n never change). The term count is a constant so that the
+/// loop over terms unrolls; inlined, so each stage's sum is straight code.
 #[inline(always)]
-fn axpy<Y: Vector, const M: usize>(y: &Y, h: f64, a: [f64; M], k: [&Y; M], n: usize) -> Y {
-    let mut out = *y;
+fn axpy<Y: Vector, const M: usize>(out: &mut Y, y: &Y, h: f64, a: [f64; M], k: [&Y; M], n: usize) {
     for i in 0..n {
         let mut s = a[0] * k[0][i];
         for j in 1..M {
             s += a[j] * k[j][i];
         }
-        out[i] += h * s;
+        out[i] = y[i] + h * s;
     }
-    out
 }
 
 impl<Y: Vector> Default for Dopri5<Y> {
@@ -117,10 +116,11 @@ impl<Y: Vector> Dopri5<Y> {
         tol: &Tolerance<Y>,
         stats: &mut Stats,
     ) -> Result<(), StepError<S::Error>> {
-        let y = self.y;
-        let k1 = self.k1;
-        // Only the components in use: the others have zero derivatives and stay as they are.
+        let (y, k1) = (&self.y, &self.k1);
+        // Only the components in use: the others have zero derivatives and stay as they are,
+        // so the stages' arguments share one buffer that starts as y.
         let n = sys.dim();
+        let mut arg = *y;
         let mut h = self.h.min(h_max);
         let mut last_err = None;
         loop {
@@ -129,34 +129,22 @@ impl<Y: Vector> Dopri5<Y> {
             }
             let mut k = [Y::zeros(); 6];
             let stages = (|| {
-                sys.rhs(&axpy(&y, h, [A21], [&k1], n), &mut k[0])?;
-                sys.rhs(&axpy(&y, h, [A31, A32], [&k1, &k[0]], n), &mut k[1])?;
-                sys.rhs(
-                    &axpy(&y, h, [A41, A42, A43], [&k1, &k[0], &k[1]], n),
-                    &mut k[2],
-                )?;
-                sys.rhs(
-                    &axpy(&y, h, [A51, A52, A53, A54], [&k1, &k[0], &k[1], &k[2]], n),
-                    &mut k[3],
-                )?;
-                sys.rhs(
-                    &axpy(
-                        &y,
-                        h,
-                        [A61, A62, A63, A64, A65],
-                        [&k1, &k[0], &k[1], &k[2], &k[3]],
-                        n,
-                    ),
-                    &mut k[4],
-                )
+                axpy(&mut arg, y, h, [A21], [k1], n);
+                sys.rhs(&arg, &mut k[0])?;
+                axpy(&mut arg, y, h, [A31, A32], [k1, &k[0]], n);
+                sys.rhs(&arg, &mut k[1])?;
+                axpy(&mut arg, y, h, [A41, A42, A43], [k1, &k[0], &k[1]], n);
+                sys.rhs(&arg, &mut k[2])?;
+                let a = [A51, A52, A53, A54];
+                axpy(&mut arg, y, h, a, [k1, &k[0], &k[1], &k[2]], n);
+                sys.rhs(&arg, &mut k[3])?;
+                let a = [A61, A62, A63, A64, A65];
+                axpy(&mut arg, y, h, a, [k1, &k[0], &k[1], &k[2], &k[3]], n);
+                sys.rhs(&arg, &mut k[4])
             })();
-            let y1 = axpy(
-                &y,
-                h,
-                [A71, A73, A74, A75, A76],
-                [&k1, &k[1], &k[2], &k[3], &k[4]],
-                n,
-            );
+            let mut y1 = *y;
+            let a = [A71, A73, A74, A75, A76];
+            axpy(&mut y1, y, h, a, [k1, &k[1], &k[2], &k[3], &k[4]], n);
             let result = stages.and_then(|_| sys.rhs(&y1, &mut k[5]));
             stats.rhs_evals += 6;
             if let Err(e) = result {
@@ -172,10 +160,11 @@ impl<Y: Vector> Dopri5<Y> {
                 e[i] = h
                     * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
             }
-            let err = error_norm(&e, &y, &y1, tol);
+            let err = error_norm(&e, y, &y1, tol);
             if err <= 1.0 {
-                let mut r = [Y::zeros(); 5];
-                r[0] = y;
+                // In place: past n, rcont[0] holds y's constant components and the others 0
+                // (`restart`).
+                let r = &mut self.rcont;
                 for i in 0..n {
                     let ydiff = y1[i] - y[i];
                     let bspl = h * k1[i] - ydiff;
@@ -195,7 +184,6 @@ impl<Y: Vector> Dopri5<Y> {
                 // err^0.17 / facold^0.04 by one exp: two pow calls were 3 % of a run.
                 let fac = ((0.17 * err.ln() - 0.04 * self.facold.ln()).exp() / 0.9).clamp(0.1, 5.0);
                 self.facold = err.max(1e-4);
-                self.rcont = r;
                 self.t_prev = self.t;
                 self.t += h;
                 self.y = y1;

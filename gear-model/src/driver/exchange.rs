@@ -35,6 +35,9 @@ pub trait ExchangeRig: System<Error = LawOutOfRange, Report = EventReport> {
     fn apply_loads(&mut self, loads: Self::Loads, y: &mut Self::State);
     /// The name of event function i (messages).
     fn event_name(&self, i: usize) -> String;
+    /// The master's event indicators at y: every event function in the order the
+    /// indicators' names give, the ones not in use at +1.
+    fn event_indicators(&self, y: &Self::State, z: &mut [f64]);
 }
 
 impl ExchangeRig for PaperRig {
@@ -64,6 +67,11 @@ impl ExchangeRig for PaperRig {
     }
     fn event_name(&self, i: usize) -> String {
         format!("{:?}", (i < N_EVENTS).then(|| EventFn::from_index(i)))
+    }
+    fn event_indicators(&self, y: &State, z: &mut [f64]) {
+        let n = self.n_event_fns();
+        self.event_margins(y, &mut z[..n]);
+        z[n..].fill(1.0);
     }
 }
 
@@ -232,12 +240,14 @@ impl<R: ExchangeRig> Exchange<R> {
     pub fn handle_events(&mut self, log: &mut dyn FnMut(&EventReport)) -> Result<bool, EventError> {
         self.observe_to_now().map_err(EventError::Law)?;
         let before = self.y;
-        let (mut m, mut rate) = (R::Margins::zeros(), R::Margins::zeros());
+        // Event mode only (not every step): these may allocate.
+        let n = self.rig.n_events();
+        let (mut m, mut rate) = (vec![0.0; n], vec![0.0; n]);
         for _ in 0..MAX_EVENTS_PER_INSTANT {
             let dy = self.rates().map_err(EventError::Law)?;
             self.rig
                 .event_margins_and_rates(&self.y, &dy, &mut m, &mut rate);
-            let crossed = (0..self.rig.n_events()).find(|&i| crossed(m[i], rate[i]));
+            let crossed = (0..n).find(|&i| crossed(m[i], rate[i]));
             let Some(i) = crossed else {
                 self.last = (self.t, self.y);
                 return Ok(self.y != before);
@@ -249,7 +259,7 @@ impl<R: ExchangeRig> Exchange<R> {
             self.stats.events += 1;
             log(&report);
         }
-        let last = (0..self.rig.n_events()).find(|&i| crossed(m[i], rate[i]));
+        let last = (0..n).find(|&i| crossed(m[i], rate[i]));
         Err(EventError::NoSettle {
             last: last.map_or("None".into(), |i| self.rig.event_name(i)),
         })

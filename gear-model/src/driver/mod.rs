@@ -12,10 +12,13 @@ pub mod bdf;
 pub mod dop853;
 pub mod dopri5;
 pub mod exchange;
+mod locate;
 pub mod simulation;
 pub mod train_simulation;
 pub mod wide;
 
+pub use locate::MarginCache;
+use locate::Scratch;
 use serde::{Deserialize, Serialize};
 use std::fmt::Debug;
 use std::ops::{Index, IndexMut};
@@ -58,27 +61,25 @@ pub trait EventOutcome {
 /// model's own types.
 pub trait System {
     type State: Vector;
-    /// One value per event function.
-    type Margins: Vector;
     /// Why the right-hand side cannot be evaluated (a law out of its range).
     type Error: std::error::Error + Clone + PartialEq + 'static;
     type Report: EventOutcome;
     fn rhs(&self, y: &Self::State, dy: &mut Self::State) -> Result<(), Self::Error>;
+    /// The number of event functions: the margins' length. Only the functions a model can
+    /// trigger count (its contacts that can engage), so the rest cost nothing per step.
+    fn n_events(&self) -> usize;
     /// Signed distance of every event function to its crossing: >= 0 until it crosses.
-    fn event_margins(&self, y: &Self::State, out: &mut Self::Margins);
+    /// `out` is `n_events()` long.
+    fn event_margins(&self, y: &Self::State, out: &mut [f64]);
     /// The margins at y and their time derivatives with state rate dy (NaN where unknown).
     fn event_margins_and_rates(
         &self,
         y: &Self::State,
         dy: &Self::State,
-        margins: &mut Self::Margins,
-        rates: &mut Self::Margins,
+        margins: &mut [f64],
+        rates: &mut [f64],
     );
     fn margin(&self, i: usize, y: &Self::State) -> f64;
-    /// The event functions in use, a prefix of the margins (the rest read as inactive).
-    fn n_events(&self) -> usize {
-        Self::Margins::LEN
-    }
     /// Applies event i at y; the event may change y (an impact changes speeds).
     fn handle_event(&mut self, i: usize, y: &mut Self::State) -> Result<Self::Report, Self::Error>;
     /// Checks an accepted state against limits the right-hand side does not see.
@@ -502,70 +503,6 @@ impl<S: System + Clone + 'static> Method<S> {
     }
 }
 
-/// The event margins and their rates at the end of the last accepted step, which are those at
-/// the start of the next: kept so that each step evaluates them once. Recomputed when missing,
-/// so it never makes two drivers unequal; an FMU state saves it, because a recomputation from
-/// the dense output rounds differently.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct MarginCache<M>(Option<(f64, M, M)>);
-
-impl<M> Default for MarginCache<M> {
-    fn default() -> Self {
-        MarginCache(None)
-    }
-}
-
-impl<M: Copy> MarginCache<M> {
-    pub fn new(v: Option<(f64, M, M)>) -> MarginCache<M> {
-        MarginCache(v)
-    }
-
-    pub fn get(&self) -> Option<(f64, M, M)> {
-        self.0
-    }
-}
-
-impl<M> PartialEq for MarginCache<M> {
-    fn eq(&self, _: &Self) -> bool {
-        true
-    }
-}
-
-/// The cubic Hermite interpolant on [0, 1] through values m0, m1 with slopes d0, d1 (per unit
-/// s): its interior minimum (s, value), if any.
-fn hermite_minimum(m0: f64, d0: f64, m1: f64, d1: f64) -> Option<(f64, f64)> {
-    // H(s) = m0 + d0 s + c2 s^2 + c3 s^3.
-    let c2 = 3.0 * (m1 - m0) - 2.0 * d0 - d1;
-    let c3 = 2.0 * (m0 - m1) + d0 + d1;
-    let h = |s: f64| m0 + s * (d0 + s * (c2 + s * c3));
-    // H'(s) = d0 + 2 c2 s + 3 c3 s^2 = 0 with H''(s) = 2 c2 + 6 c3 s > 0.
-    let (a, b, c) = (3.0 * c3, 2.0 * c2, d0);
-    let mut best: Option<(f64, f64)> = None;
-    let mut consider = |s: f64| {
-        if s > 0.0 && s < 1.0 && b + 2.0 * a * s > 0.0 {
-            let v = h(s);
-            if best.is_none_or(|(_, w)| v < w) {
-                best = Some((s, v));
-            }
-        }
-    };
-    if a.abs() <= 1e-12 * (b.abs() + c.abs()) {
-        if b != 0.0 {
-            consider(-c / b);
-        }
-    } else {
-        let disc = b * b - 4.0 * a * c;
-        if disc >= 0.0 {
-            let q = -0.5 * (b + b.signum() * disc.sqrt());
-            if q != 0.0 {
-                consider(q / a);
-                consider(c / q);
-            }
-        }
-    }
-    best
-}
-
 /// How many accepted steps a computed step limit serves (see `Driver::step_limit`).
 const STEP_LIMIT_AGE: u64 = 8;
 
@@ -596,8 +533,8 @@ impl Default for WorkCap {
 
 #[derive(Debug, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
-    serialize = "S::State: Serialize, S::Margins: Serialize",
-    deserialize = "S::State: Deserialize<'de>, S::Margins: Deserialize<'de>"
+    serialize = "S::State: Serialize",
+    deserialize = "S::State: Deserialize<'de>"
 ))]
 pub struct Driver<S: System> {
     pub method: Method<S>,
@@ -616,7 +553,9 @@ pub struct Driver<S: System> {
     /// holds (stiffness, contact speed) change slowly, so it is renewed at restarts and every
     /// `STEP_LIMIT_AGE` accepted steps. NaN: not computed yet.
     pub(crate) step_limit: f64,
-    pub(crate) start: MarginCache<S::Margins>,
+    pub(crate) start: MarginCache,
+    #[serde(skip)]
+    scratch: Scratch,
     /// A cap on the internal step (tests force small steps with it); infinite by default.
     pub max_step: f64,
     /// `System::observe` has seen the dense output up to this time.
@@ -659,6 +598,7 @@ impl<S: System + Clone + 'static> Clone for Driver<S> {
             } else {
                 self.start.clone()
             },
+            scratch: Scratch::default(),
             max_step: self.max_step,
             observed: self.observed,
             search_from: self.search_from,
@@ -680,6 +620,7 @@ impl<S: System + Clone + 'static> Driver<S> {
             y_start: y0,
             step_limit: f64::NAN,
             start: MarginCache::default(),
+            scratch: Scratch::default(),
             max_step: f64::INFINITY,
             observed: t0,
             search_from: t0,
@@ -759,7 +700,7 @@ impl<S: System + Clone + 'static> Driver<S> {
                     // The step is still a step of the same right-hand side: search the rest of
                     // it for the next event under the new modes.
                     self.search_from = ev.t;
-                    self.start = MarginCache::default();
+                    self.start.clear();
                     self.locate_and_check(sys)?;
                     continue;
                 }
@@ -825,7 +766,7 @@ impl<S: System + Clone + 'static> Driver<S> {
         self.search_from = t;
         self.y_start = *y;
         self.step_limit = f64::NAN;
-        self.start = MarginCache::default();
+        self.start.clear();
         Ok(())
     }
 
@@ -838,150 +779,5 @@ impl<S: System + Clone + 'static> Driver<S> {
             StepError::StepTooSmall { t, h } => DriverError::StepTooSmall { t, h },
             StepError::Solver { t, message } => DriverError::Solver { t, message },
         }
-    }
-
-    /// The earliest event in the last step. Each margin is known at the step's ends with its
-    /// rate; the cubic through those values and rates lies above a chord bound, and a margin
-    /// whose bound stays positive has not crossed. For the others the midpoint is evaluated
-    /// too, and where the cubic's interior minimum comes near zero (within four times the
-    /// cubic's error at the midpoint), the margin itself near that minimum, after one Newton
-    /// step on its rate. So a margin that dips below zero and comes back inside one step (a
-    /// graze) is found. The first sample below zero brackets the root.
-    fn locate(&mut self, sys: &S) -> Option<PendingEvent> {
-        let (t0, t1) = (self.search_from, self.method.t());
-        let (h, tm) = (t1 - t0, 0.5 * (t0 + t1));
-        let mut end = S::Margins::zeros();
-        let mut end_rate = S::Margins::zeros();
-        sys.event_margins_and_rates(
-            self.method.y(),
-            &self.method.rate_at_end(),
-            &mut end,
-            &mut end_rate,
-        );
-        // The margins at t0: the last step's end, read in place (they are 2 x 32 reals), or
-        // computed anew after a restart.
-        let fresh;
-        let (start, start_rate) = match &self.start.0 {
-            Some((t, m, r)) if *t == t0 => (m, r),
-            _ => {
-                let (mut m, mut r) = (S::Margins::zeros(), S::Margins::zeros());
-                let y0 = self.method.interpolate(t0);
-                sys.event_margins_and_rates(&y0, &self.method.derivative(t0), &mut m, &mut r);
-                fresh = (m, r);
-                (&fresh.0, &fresh.1)
-            }
-        };
-        // At t0 a margin is >= 0 except when two events coincide and the other one was just
-        // handled: it has then crossed at t0 itself, and the root search returns about t0.
-        let m0 = |i: usize| start[i].max(0.0);
-        let slopes = |i: usize| (h * start_rate[i], h * end_rate[i]);
-        // The cubic through the ends is the chord plus s(1-s)[(d0 - D)(1-s) - (d1 - D)s],
-        // D = m1 - m0: it stays above min(m0, m1) - max(|d0 - D|, |d1 - D|)/4. A margin whose
-        // bound stays positive and whose end is positive cannot have crossed; most end here.
-        let may_dip = |i: usize| {
-            let (d0, d1) = slopes(i);
-            let chord = end[i] - m0(i);
-            let dip = 0.25 * (d0 - chord).abs().max((d1 - chord).abs());
-            !(m0(i).min(end[i]) > dip) // NaN rates: unknown, so checked
-        };
-        let n = sys.n_events();
-        if !(0..n).any(may_dip) {
-            self.start = MarginCache(Some((t1, end, end_rate)));
-            return None;
-        }
-        let mut mid = S::Margins::zeros();
-        sys.event_margins(&self.method.interpolate(tm), &mut mid);
-        let mut best: Option<PendingEvent> = None;
-        for i in (0..n).filter(|&i| may_dip(i) || mid[i] < 0.0) {
-            let (d0, d1) = slopes(i);
-            let m0 = m0(i);
-            let mut samples = [(tm, mid[i]), (t1, end[i]), (f64::INFINITY, 0.0)];
-            let cubic = if d0.is_finite() && d1.is_finite() {
-                hermite_minimum(m0, d0, end[i], d1)
-            } else {
-                None
-            };
-            if let Some((s, low)) = cubic {
-                // Sample the margin near the cubic's minimum where it comes within the cubic's
-                // own error at the midpoint (times 4) of zero.
-                let c2 = 3.0 * (end[i] - m0) - 2.0 * d0 - d1;
-                let c3 = 2.0 * (m0 - end[i]) + d0 + d1;
-                let at_mid = m0 + 0.5 * (d0 + 0.5 * (c2 + 0.5 * c3));
-                let slack = 4.0 * (at_mid - mid[i]).abs() + 1e-3 * (m0.abs() + end[i].abs());
-                if low <= slack {
-                    samples[2] = self.graze_sample(sys, i, t0, h, s, 2.0 * c2 + 6.0 * c3 * s);
-                }
-            }
-            if samples[2].0 < t1 {
-                samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-            }
-            let (mut a, mut fa) = (t0, m0);
-            for &(t, m) in samples.iter().filter(|p| p.0.is_finite()) {
-                if m < 0.0 {
-                    let t = self.root(sys, i, a, fa, t, m);
-                    if best.is_none_or(|e| t < e.t) {
-                        best = Some(PendingEvent { t, index: i });
-                    }
-                    break;
-                }
-                (a, fa) = (t, m);
-            }
-        }
-        // After an event the step ends there: the cached end does not start the next one.
-        self.start = MarginCache(best.is_none().then_some((t1, end, end_rate)));
-        best
-    }
-
-    /// The margin of event i near the cubic's interior minimum at s (curvature `curv` per s^2):
-    /// one Newton step on the margin's true rate there, and the lower of the two values.
-    fn graze_sample(&self, sys: &S, i: usize, t0: f64, h: f64, s: f64, curv: f64) -> (f64, f64) {
-        let t = t0 + s * h;
-        let y = self.method.interpolate(t);
-        let (mut margins, mut rates) = (S::Margins::zeros(), S::Margins::zeros());
-        sys.event_margins_and_rates(&y, &self.method.derivative(t), &mut margins, &mut rates);
-        let m = margins[i];
-        let s2 = s - h * rates[i] / curv;
-        if !(s2 > 0.0 && s2 < 1.0) || s2 == s {
-            return (t, m);
-        }
-        let t2 = t0 + s2 * h;
-        let m2 = sys.margin(i, &self.method.interpolate(t2));
-        if m2 < m {
-            (t2, m2)
-        } else {
-            (t, m)
-        }
-    }
-
-    /// Illinois regula falsi on the dense output: returns a time at which the function has
-    /// crossed, within a few ulp of the root.
-    fn root(&self, sys: &S, i: usize, mut a: f64, mut fa: f64, mut b: f64, mut fb: f64) -> f64 {
-        let mut side = 0;
-        for _ in 0..200 {
-            if b - a <= 4.0 * f64::EPSILON * b.abs().max(1e-300) {
-                break;
-            }
-            let mut c = (a * fb - b * fa) / (fb - fa);
-            if !(c > a && c < b) {
-                c = 0.5 * (a + b);
-            }
-            let fc = sys.margin(i, &self.method.interpolate(c));
-            if fc < 0.0 {
-                b = c;
-                fb = fc;
-                if side == -1 {
-                    fa *= 0.5;
-                }
-                side = -1;
-            } else {
-                a = c;
-                fa = fc;
-                if side == 1 {
-                    fb *= 0.5;
-                }
-                side = 1;
-            }
-        }
-        b
     }
 }

@@ -2,7 +2,6 @@
 //! driver's `System` trait.
 
 use super::{Driver, DriverError, EventOutcome, Method, System, Tolerance};
-use crate::model::contact::N_EVENTS;
 use crate::model::mesh::{EventReport, LawOutOfRange};
 use crate::model::paper_rig::{Ramp, CONTROLLED};
 use crate::model::statistics::Statistics;
@@ -17,21 +16,20 @@ impl EventOutcome for EventReport {
 
 impl System for PaperRig {
     type State = State;
-    type Margins = [f64; N_EVENTS];
     type Error = LawOutOfRange;
     type Report = EventReport;
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         PaperRig::rhs(self, y, dy)
     }
-    fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
+    fn event_margins(&self, y: &State, out: &mut [f64]) {
         PaperRig::event_margins(self, y, out)
     }
     fn event_margins_and_rates(
         &self,
         y: &State,
         dy: &State,
-        margins: &mut [f64; N_EVENTS],
-        rates: &mut [f64; N_EVENTS],
+        margins: &mut [f64],
+        rates: &mut [f64],
     ) {
         PaperRig::event_margins_and_rates(self, y, dy, margins, rates)
     }

@@ -3,29 +3,28 @@
 
 use super::exchange::ExchangeRig;
 use super::{Driver, DriverError, Method, System, Tolerance};
-use crate::model::contact::{EventFn, N_EVENTS};
+use crate::model::contact::EventFn;
 use crate::model::mesh::{EventReport, LawOutOfRange};
 use crate::model::statistics::Statistics;
-use crate::model::train::{Margins, State, Train, TrainLoads, TrainSpec};
+use crate::model::train::{State, Train, TrainLoads, TrainSpec};
 use crate::model::ModelError;
 
 impl System for Train {
     type State = State;
-    type Margins = Margins;
     type Error = LawOutOfRange;
     type Report = EventReport;
     fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         Train::rhs(self, y, dy)
     }
-    fn event_margins(&self, y: &State, out: &mut Margins) {
+    fn event_margins(&self, y: &State, out: &mut [f64]) {
         Train::event_margins(self, y, out)
     }
     fn event_margins_and_rates(
         &self,
         y: &State,
         dy: &State,
-        margins: &mut Margins,
-        rates: &mut Margins,
+        margins: &mut [f64],
+        rates: &mut [f64],
     ) {
         Train::event_margins_and_rates(self, y, dy, margins, rates)
     }
@@ -242,7 +241,10 @@ impl ExchangeRig for Train {
         self.set_loads(loads, y)
     }
     fn event_name(&self, i: usize) -> String {
-        let (m, e) = (i / N_EVENTS, i % N_EVENTS);
+        let (m, e) = self.event_of(i);
         format!("mesh[{}] {:?}", m + 1, EventFn::from_index(e))
+    }
+    fn event_indicators(&self, y: &State, z: &mut [f64]) {
+        Train::event_indicators(self, y, z)
     }
 }

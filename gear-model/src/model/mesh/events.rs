@@ -178,7 +178,7 @@ impl GearMesh {
     /// All event functions, as signed distances to a crossing: positive while the recorded sign
     /// holds, negative once the function has crossed. Inactive ones read +1. The flanks'
     /// penetrations, which most of them use, are computed once. (A rigid mesh's release
-    /// margin is NaN here: its rig fills it in.)
+    /// margin is NaN here: its rig fills it in.) Writes the first `n_event_fns()` entries.
     pub fn event_margins(&self, y: &Kin, out: &mut [f64]) {
         let d = [
             self.flank_delta(Flank::Forward, y),
@@ -186,11 +186,10 @@ impl GearMesh {
         ];
         if self.dev.is_none() && !self.rigid() {
             // The common case's slot-by-slot path; the rates it also writes are not wanted.
-            let mut rates = [0.0; N_EVENTS];
+            let mut rates = [0.0; contact::BASE_EVENTS];
             return self.base_margins_and_rates(y, &[0.0; super::NK], d, 0.0, out, &mut rates);
         }
         let n = self.n_event_fns();
-        out[n..N_EVENTS].fill(1.0);
         for (i, m) in out[..n].iter_mut().enumerate() {
             let e = EventFn::from_index(i);
             *m = if self.event_active(e) {
@@ -226,8 +225,6 @@ impl GearMesh {
             return self.base_margins_and_rates(y, dy, d, travel, margins, rates);
         }
         let n = self.n_event_fns();
-        margins[n..N_EVENTS].fill(1.0);
-        rates[n..N_EVENTS].fill(0.0);
         for i in 0..n {
             let e = EventFn::from_index(i);
             if !self.event_active(e) {
@@ -274,8 +271,13 @@ impl GearMesh {
     ) {
         let g = &self.geo;
         let low = g.s_window_low();
-        margins[contact::BASE_EVENTS..N_EVENTS].fill(1.0);
-        rates[contact::BASE_EVENTS..N_EVENTS].fill(0.0);
+        // Fixed-size views: every index below is provably in range (no bounds checks).
+        let margins: &mut [f64; contact::BASE_EVENTS] = (&mut margins[..contact::BASE_EVENTS])
+            .try_into()
+            .expect("BASE_EVENTS long");
+        let rates: &mut [f64; contact::BASE_EVENTS] = (&mut rates[..contact::BASE_EVENTS])
+            .try_into()
+            .expect("BASE_EVENTS long");
         // An active function signed as its margin; an inactive one reads +1 with rate 0.
         let mut put = |i: usize, active: Option<(f64, f64)>| {
             (margins[i], rates[i]) = match active {

@@ -13,7 +13,7 @@ mod rigid_contact;
 #[cfg(test)]
 mod tests;
 
-use super::contact::{EventFn, Flank, N_EVENTS, SLOTS};
+use super::contact::{EventFn, Flank, SLOTS};
 use super::mesh::{self, EventReport, GearMesh, Kin, LawOutOfRange, MeshLoad, Placement};
 use super::rig::Slider;
 use super::statistics::Statistics;
@@ -400,8 +400,9 @@ impl PaperRig {
         self.check_state(y)
     }
 
-    /// All event margins: the mesh's, with a rigid lock's constraint force as its release.
-    pub fn event_margins(&self, y: &State, out: &mut [f64; N_EVENTS]) {
+    /// All event margins: the mesh's, with a rigid lock's constraint force as its release
+    /// (the first `n_event_fns()` entries).
+    pub fn event_margins(&self, y: &State, out: &mut [f64]) {
         self.mesh.event_margins(&kin(y), out);
         if self.rigid() {
             self.fill_rigid_release(y, out);
@@ -412,8 +413,8 @@ impl PaperRig {
         &self,
         y: &State,
         dy: &State,
-        margins: &mut [f64; N_EVENTS],
-        rates: &mut [f64; N_EVENTS],
+        margins: &mut [f64],
+        rates: &mut [f64],
     ) {
         self.mesh
             .event_margins_and_rates(&kin(y), &kin(dy), margins, rates);

@@ -3,7 +3,7 @@
 //! modes (which flank is locked, which is parked) are the mesh's recorded signs.
 
 use super::{kin, PaperRig, State, DDTE, DTE, NY, V_S, W_A, W_LOSS, X_S};
-use crate::model::contact::{slot_flank, EventFn, Flank, N_EVENTS, SLOTS};
+use crate::model::contact::{slot_flank, EventFn, Flank, SLOTS};
 use crate::model::mesh::{describe, other, ContactModel, MeshLoad, SlotForces};
 use crate::model::rig;
 use crate::model::rigid::{self, Impact};
@@ -109,7 +109,7 @@ impl PaperRig {
     }
 
     /// The release margin of a locked flank is its constraint force (-1 when none holds).
-    pub(crate) fn fill_rigid_release(&self, y: &State, out: &mut [f64; N_EVENTS]) {
+    pub(crate) fn fill_rigid_release(&self, y: &State, out: &mut [f64]) {
         for f in [Flank::Forward, Flank::Backward] {
             let i = EventFn::Rel(f).index();
             if self.locked() == Some(f) {

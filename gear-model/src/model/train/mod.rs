@@ -32,9 +32,10 @@ pub const NY: usize = 2 + 2 * MAX_BODIES;
 pub type State = crate::driver::wide::Wide<NY>;
 pub const W_EXT: usize = 0;
 pub const W_LOSS: usize = 1;
-/// The margins: every mesh's event functions, mesh m's from m N_EVENTS on.
+/// Model Exchange's event indicators: every mesh's event functions, mesh m's from m N_EVENTS
+/// on, for the full capacity (`Train::event_indicators`). The driver's margins are packed
+/// instead: each mesh's functions in use, one after the other (`Train::event_of`).
 pub const N_MARGINS: usize = MAX_MESHES * N_EVENTS;
-pub type Margins = crate::driver::wide::Wide<N_MARGINS>;
 
 /// The states a Model Exchange master integrates: the state itself, for the full capacity
 /// (coordinates not in use read 0).
@@ -81,18 +82,56 @@ pub struct TrainConfig {
     links: Vec<MeshLink>,
     /// Each body's carrier slot (the housing's off a carrier) and sigma_i sigma_c.
     body_carrier: Vec<(usize, f64)>,
+    /// The housing's slot in `Bodies`: right after the bodies (body 0 of the spec,
+    /// `HOUSING`, is renumbered so that a train's arrays are as long as its bodies).
+    housing: usize,
+    /// Each shaft's ends' slots (a, b).
+    shaft_ends: Vec<(usize, usize)>,
     /// Each body's inertia with its planets' orbital inertia, and its reciprocal: the
     /// right-hand side multiplies where it would divide (benches/rhs_cost.rs).
     j_eff: Vec<f64>,
     inv_j: Vec<f64>,
+    /// Where each mesh's event functions start in the packed margins, and their total.
+    event_start: Vec<usize>,
 }
 
-/// The bodies' forward angles and speeds at a state; the housing's slot stays 0.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Bodies {
-    pub theta: [f64; MAX_BODIES + 1],
-    pub w: [f64; MAX_BODIES + 1],
+/// The slots of the full capacity's bodies: one per body and the housing's.
+pub const SLOTS: usize = MAX_BODIES + 1;
+
+/// The bodies' forward angles and speeds at a state, body i in slot i; the housing's slot
+/// (`TrainConfig::housing`, right after the bodies) and those past it stay 0. N: the slots
+/// held, at least the bodies' and the housing's (`by_slots!`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bodies<const N: usize = SLOTS> {
+    pub theta: [f64; N],
+    pub w: [f64; N],
 }
+
+impl<const N: usize> Default for Bodies<N> {
+    fn default() -> Self {
+        Bodies {
+            theta: [0.0; N],
+            w: [0.0; N],
+        }
+    }
+}
+
+/// Calls `$self.$f::<N>(args)` with the fewest slots N that hold the train's bodies and the
+/// housing: the right-hand side and the event functions zero and copy arrays of the bodies
+/// in use, not of the full capacity (what is not used costs nothing per step).
+macro_rules! by_slots {
+    ($self:ident . $f:ident ( $($arg:expr),* )) => {
+        match $self.cfg.housing + 1 {
+            0..=4 => $self.$f::<4>($($arg),*),
+            5..=8 => $self.$f::<8>($($arg),*),
+            _ => $self.$f::<SLOTS>($($arg),*),
+        }
+    };
+}
+
+mod events;
+mod readout;
+mod tolerance;
 
 /// The train.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -132,14 +171,17 @@ impl Default for TrainConfig {
             body_carrier: vec![],
             j_eff: vec![],
             inv_j: vec![],
+            event_start: vec![0],
+            housing: 0,
+            shaft_ends: vec![],
         }
     }
 }
 
 /// The torques on the bodies at a state, and what they do.
-struct Torques {
+struct Torques<const N: usize> {
     /// Forward torque on each body (the housing's slot is scratch).
-    on: [f64; MAX_BODIES + 1],
+    on: [f64; N],
     p_ext: f64,
     p_loss: f64,
     /// Counter-clockwise torque of the meshes and shafts on the housing.
@@ -187,13 +229,14 @@ impl Train {
             );
         }
         let n = spec.bodies.len();
+        let slot = |i: usize| if i == HOUSING { n } else { i };
         let links = (0..spec.meshes.len())
             .map(|m| {
                 let mp = &spec.meshes[m];
                 let (sa, sb) = st.mesh_sense[m];
                 let (carrier, sc) = match st.frame[m] {
                     Some(c) => (c, st.sense[c]),
-                    None => (HOUSING, 0.0),
+                    None => (n, 0.0),
                 };
                 let dte = match &coords.mesh[m] {
                     Source::Coord(k) => vec![(coord_index(*k), 1.0, start.dte0[m])],
@@ -204,8 +247,8 @@ impl Train {
                     Source::Bodies => unreachable!("a mesh's dte is a coordinate or a combination"),
                 };
                 MeshLink {
-                    a: mp.a,
-                    b: mp.b,
+                    a: slot(mp.a),
+                    b: slot(mp.b),
                     carrier,
                     rel_a: sa * sc,
                     rel_b: sb * sc,
@@ -217,7 +260,7 @@ impl Train {
         let body_carrier: Vec<(usize, f64)> = (0..n)
             .map(|i| match spec.carrier_of(i) {
                 Some(c) => (c, st.sense[i] * st.sense[c]),
-                None => (HOUSING, 0.0),
+                None => (n, 0.0),
             })
             .collect();
         let mut j_eff: Vec<f64> = spec.bodies.iter().map(|b| b.j).collect();
@@ -233,6 +276,17 @@ impl Train {
             .map(|mp| mesh::Coefficients::new(&mp.params))
             .collect();
         let n_meshes = spec.meshes.len();
+        let shaft_ends = spec
+            .shafts
+            .iter()
+            .map(|sh| (slot(sh.a), slot(sh.b)))
+            .collect();
+        let event_start = std::iter::once(0)
+            .chain(meshes.iter().scan(0, |n, mesh: &GearMesh| {
+                *n += mesh.n_event_fns();
+                Some(*n)
+            }))
+            .collect();
         let cfg = TrainConfig {
             spec,
             structure: st,
@@ -243,6 +297,9 @@ impl Train {
             body_carrier,
             j_eff,
             inv_j,
+            event_start,
+            housing: n,
+            shaft_ends,
         };
         let mut train = Train {
             cfg: Arc::new(cfg),
@@ -285,8 +342,13 @@ impl Train {
     }
 
     /// The bodies' angles and speeds from the coordinates.
-    #[inline]
     pub fn bodies(&self, y: &State) -> Bodies {
+        self.bodies_in(y)
+    }
+
+    /// The same in N slots (`by_slots!`).
+    #[inline]
+    fn bodies_in<const N: usize>(&self, y: &State) -> Bodies<N> {
         let c = &self.cfg.coords;
         let mut b = Bodies::default();
         if let Some(order) = &c.substitution {
@@ -337,7 +399,7 @@ impl Train {
     /// Mesh m's coordinates: A's angle and speed relative to the mesh's carrier, its dte and
     /// rate (no slider in a train).
     #[inline]
-    fn kin(&self, m: usize, y: &State, b: &Bodies) -> Kin {
+    fn kin<const N: usize>(&self, m: usize, y: &State, b: &Bodies<N>) -> Kin {
         let l = &self.cfg.links[m];
         let (q, dq) = self.dte_and_rate(m, y);
         [
@@ -351,23 +413,28 @@ impl Train {
     }
 
     /// Shaft j's twist theta_a - theta_b + twist_start and its rate at y.
-    fn shaft_state(&self, j: usize, y: &State, b: Option<&Bodies>) -> (f64, f64) {
+    fn shaft_state<const N: usize>(
+        &self,
+        j: usize,
+        y: &State,
+        b: Option<&Bodies<N>>,
+    ) -> (f64, f64) {
         let c = &*self.cfg;
         match c.coords.shaft[j] {
             Source::Coord(k) => (y[coord_index(k)], y[coord_index(k) + 1]),
             _ => {
-                let sh = &c.spec.shafts[j];
+                let (a, e) = c.shaft_ends[j];
                 let own;
                 let b = match b {
                     Some(b) => b,
                     None => {
-                        own = self.bodies(y);
+                        own = self.bodies_in::<N>(y);
                         &own
                     }
                 };
                 (
-                    b.theta[sh.a] - b.theta[sh.b] + sh.twist_start,
-                    b.w[sh.a] - b.w[sh.b],
+                    b.theta[a] - b.theta[e] + c.spec.shafts[j].twist_start,
+                    b.w[a] - b.w[e],
                 )
             }
         }
@@ -376,28 +443,33 @@ impl Train {
     /// Shaft j's transmitted torque at y (gear-train.md §1).
     pub fn shaft_torque(&self, j: usize, y: &State) -> f64 {
         let sh = &self.cfg.spec.shafts[j];
-        let (q, dq) = self.shaft_state(j, y, None);
+        let (q, dq) = self.shaft_state::<SLOTS>(j, y, None);
         sh.k * q + sh.d * dq
     }
 
     /// Shaft j's twist theta_a - theta_b + twist_start at y.
     pub fn shaft_twist(&self, j: usize, y: &State) -> f64 {
-        self.shaft_state(j, y, None).0
+        self.shaft_state::<SLOTS>(j, y, None).0
     }
 
     /// Shaft j's twist rate w_a - w_b at y.
     pub fn shaft_twist_rate(&self, j: usize, y: &State) -> f64 {
-        self.shaft_state(j, y, None).1
+        self.shaft_state::<SLOTS>(j, y, None).1
     }
 
     /// Every torque on the bodies with the current modes (gear-train.md §5, planetary.md §3):
     /// inputs, drags (a planet's relative to its carrier, which takes the reaction), each
     /// mesh's torques on its gears and minus their sum on its carrier, the shafts'.
     #[inline]
-    fn torques(&self, y: &State, b: &Bodies) -> Result<Torques, LawOutOfRange> {
+    fn torques<const N: usize>(
+        &self,
+        y: &State,
+        b: &Bodies<N>,
+    ) -> Result<Torques<N>, LawOutOfRange> {
         let c = &*self.cfg;
+        let hs = c.housing;
         let mut t = Torques {
-            on: [0.0; MAX_BODIES + 1],
+            on: [0.0; N],
             p_ext: 0.0,
             p_loss: 0.0,
             housing: 0.0,
@@ -409,7 +481,7 @@ impl Train {
             let w_rel = b.w[i] - rel * b.w[carrier];
             let drag = body.c * w_rel;
             t.on[i] += tau - drag;
-            if carrier != HOUSING {
+            if carrier != hs {
                 t.on[carrier] += rel * drag;
             }
             t.p_ext += tau * b.w[i] - drag * w_rel;
@@ -419,12 +491,12 @@ impl Train {
             let load = mesh.compliant_load(&self.kin(m, y, b), None)?;
             t.on[l.a] += load.tq_a;
             t.on[l.b] += load.tq_b;
-            if l.carrier != HOUSING {
+            if l.carrier != hs {
                 t.on[l.carrier] -= l.rel_a * load.tq_a + l.rel_b * load.tq_b;
             }
-            if l.a == HOUSING || l.b == HOUSING {
+            if l.a == hs || l.b == hs {
                 let (sa, sb) = st.mesh_sense[m];
-                t.housing += if l.a == HOUSING {
+                t.housing += if l.a == hs {
                     sa * load.tq_a
                 } else {
                     sb * load.tq_b
@@ -436,13 +508,14 @@ impl Train {
         for (j, sh) in c.spec.shafts.iter().enumerate() {
             let (q, dq) = self.shaft_state(j, y, Some(b));
             let tq = sh.k * q + sh.d * dq;
-            t.on[sh.a] -= tq;
-            t.on[sh.b] += tq;
+            let (a, e) = c.shaft_ends[j];
+            t.on[a] -= tq;
+            t.on[e] += tq;
             let s = st.shaft_sense[j];
-            if sh.a == HOUSING {
+            if a == hs {
                 t.housing -= s * tq;
             }
-            if sh.b == HOUSING {
+            if e == hs {
                 t.housing += s * tq;
             }
             t.p_loss += sh.d * dq * dq;
@@ -458,11 +531,16 @@ impl Train {
     /// Right-hand side with the current modes: the bodies' accelerations (the inertias are
     /// diagonal in the absolute rotations), then each coordinate's.
     pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
+        by_slots!(self.rhs_in(y, dy))
+    }
+
+    #[inline]
+    fn rhs_in<const N: usize>(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         let c = &*self.cfg;
-        let b = self.bodies(y);
+        let b = self.bodies_in::<N>(y);
         let t = self.torques(y, &b)?;
         let n = c.spec.bodies.len();
-        let mut acc = [0.0; MAX_BODIES + 1];
+        let mut acc = [0.0; N];
         for (a, (tq, inv_j)) in acc.iter_mut().zip(t.on.iter().zip(&c.inv_j)).take(n) {
             *a = tq * inv_j;
         }
@@ -481,14 +559,6 @@ impl Train {
         2 + 2 * self.cfg.coords.coords.len()
     }
 
-    /// The event functions in use: every mesh's block (a prefix of the margins).
-    pub fn n_event_fns(&self) -> usize {
-        match self.meshes.len() {
-            0 => 0,
-            n => (n - 1) * N_EVENTS + self.meshes[n - 1].n_event_fns(),
-        }
-    }
-
     pub fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
         let b = self.bodies(y);
         for (m, mesh) in self.meshes.iter().enumerate() {
@@ -502,60 +572,6 @@ impl Train {
         let mut dy = State::zeros();
         self.rhs(y, &mut dy)?;
         self.check_state(y)
-    }
-
-    pub fn event_margins(&self, y: &State, out: &mut Margins) {
-        let b = self.bodies(y);
-        out.0[self.meshes.len() * N_EVENTS..].fill(1.0);
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            mesh.event_margins(
-                &self.kin(m, y, &b),
-                &mut out.0[m * N_EVENTS..(m + 1) * N_EVENTS],
-            );
-        }
-    }
-
-    pub fn event_margins_and_rates(
-        &self,
-        y: &State,
-        dy: &State,
-        margins: &mut Margins,
-        rates: &mut Margins,
-    ) {
-        let b = self.bodies(y);
-        let db = self.bodies(dy);
-        let n = self.meshes.len() * N_EVENTS;
-        margins.0[n..].fill(1.0);
-        rates.0[n..].fill(0.0);
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            let r = m * N_EVENTS..(m + 1) * N_EVENTS;
-            let (k, dk) = (self.kin(m, y, &b), self.kin(m, dy, &db));
-            mesh.event_margins_and_rates(&k, &dk, &mut margins.0[r.clone()], &mut rates.0[r]);
-        }
-    }
-
-    pub fn margin(&self, i: usize, y: &State) -> f64 {
-        let (m, e) = (i / N_EVENTS, i % N_EVENTS);
-        if m >= self.meshes.len() {
-            return 1.0;
-        }
-        let b = self.bodies(y);
-        self.meshes[m].margin(EventFn::from_index(e), &self.kin(m, y, &b))
-    }
-
-    /// Applies event i (mesh i / N_EVENTS, its function i % N_EVENTS).
-    pub fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange> {
-        let (m, e) = (i / N_EVENTS, i % N_EVENTS);
-        let b = self.bodies(y);
-        let k = self.kin(m, y, &b);
-        let before = self.meshes[m].contact_energy(&k).map_err(|e| named(m, e))?;
-        let mut report = self.meshes[m].handle_event(e, &k);
-        if self.meshes[m].describe_events {
-            report.what = format!("mesh[{}]: {}", m + 1, report.what);
-        }
-        self.n_events += 1;
-        self.e_gate += self.meshes[m].contact_energy(&k).map_err(|e| named(m, e))? - before;
-        Ok(report)
     }
 
     /// New torques and coefficients from a master.
@@ -605,184 +621,9 @@ impl Train {
         h
     }
 
-    fn kinetic_energy(&self, b: &Bodies) -> f64 {
-        let c = &*self.cfg;
-        (0..c.j_eff.len())
-            .map(|i| 0.5 * c.j_eff[i] * b.w[i] * b.w[i])
-            .sum()
-    }
-
-    /// Elastic energy of the meshes' carrying pairs and of the shafts.
-    pub fn elastic_energy(&self, y: &State) -> Result<f64, LawOutOfRange> {
-        let c = &*self.cfg;
-        let b = self.bodies(y);
-        let mut e = 0.0;
-        for (j, sh) in c.spec.shafts.iter().enumerate() {
-            let twist = self.shaft_state(j, y, Some(&b)).0;
-            e += 0.5 * sh.k * twist * twist;
-        }
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            e += mesh
-                .contact_energy(&self.kin(m, y, &b))
-                .map_err(|e| named(m, e))?;
-        }
-        Ok(e)
-    }
-
-    /// (E_kin + E_el + W_loss - W_ext - E_gate, E_kin, E_el).
-    fn energy_terms(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
-        let e_kin = self.kinetic_energy(&self.bodies(y));
-        let e_el = self.elastic_energy(y)?;
-        Ok((
-            e_kin + e_el + y[W_LOSS] - y[W_EXT] - self.e_gate,
-            e_kin,
-            e_el,
-        ))
-    }
-
-    /// (E_kin, E_el, the balance's residual against t = 0).
-    pub fn energy(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
-        let (balance, e_kin, e_el) = self.energy_terms(y)?;
-        Ok((e_kin, e_el, balance - self.e_start))
-    }
-
-    /// Mesh m's readout at y.
-    pub fn mesh_readout(&self, m: usize, y: &State) -> Result<mesh::MeshReadout, LawOutOfRange> {
-        self.mesh_readout_at(m, y, &self.bodies(y))
-    }
-
-    /// The same with the bodies at y already at hand (every mesh's outputs after a step).
-    pub fn mesh_readout_at(
-        &self,
-        m: usize,
-        y: &State,
-        b: &Bodies,
-    ) -> Result<mesh::MeshReadout, LawOutOfRange> {
-        let k = self.kin(m, y, b);
-        let (pairs, load) = self.meshes[m]
-            .compliant_pair_forces(&k)
-            .map_err(|e| named(m, e))?;
-        Ok(self.meshes[m].readout_from(&k, &pairs, &load))
-    }
-
     /// Where master state j (`N_MASTER_STATES`) is in the state; None: not in use.
     pub fn master_index(&self, j: usize) -> Option<usize> {
         (j < self.dim()).then_some(j)
-    }
-
-    /// Mesh m's dte (its forward penetration) at y.
-    pub fn dte(&self, m: usize, y: &State) -> f64 {
-        self.dte_and_rate(m, y).0
-    }
-
-    /// Mesh m's dte rate at y.
-    pub fn dte_rate(&self, m: usize, y: &State) -> f64 {
-        self.dte_and_rate(m, y).1
-    }
-
-    /// Adds the piece [t0, t1] (modes fixed) to each mesh's statistics.
-    pub fn observe(
-        &mut self,
-        t0: f64,
-        t1: f64,
-        y: &dyn Fn(f64) -> State,
-    ) -> Result<(), LawOutOfRange> {
-        let Some(mut all) = self.stats.take() else {
-            return Ok(());
-        };
-        let mut r = Ok(());
-        for (m, s) in all.iter_mut().enumerate() {
-            r = r.and(self.add_statistics(m, s, t0, t1, y));
-        }
-        self.stats = Some(all);
-        r
-    }
-
-    pub fn add_statistics(
-        &self,
-        m: usize,
-        s: &mut Statistics,
-        t0: f64,
-        t1: f64,
-        y: &dyn Fn(f64) -> State,
-    ) -> Result<(), LawOutOfRange> {
-        let force = |t: f64| -> Result<f64, LawOutOfRange> {
-            let r = self.mesh_readout(m, &y(t))?;
-            Ok(r.flank_force[0] + r.flank_force[1])
-        };
-        s.add(
-            self.meshes[m].contact_modes(),
-            t0,
-            t1,
-            &|t| self.dte(m, &y(t)),
-            &force,
-        )
-    }
-
-    /// The load each coordinate carries when the train turns rigidly under the current
-    /// torques (drag and vibration left out): the scale of its error tolerance. With theta =
-    /// T x, the free coordinates accelerate as (T^T J T)_FF a = (T^T tau)_F, and an edge's
-    /// coordinate needs the generalized force (T^T J T)_EF a - (T^T tau)_E: a mesh's normal
-    /// force, a shaft's torque. A loop's meshes share the load; this books it on the steps.
-    fn static_loads(&self) -> Vec<f64> {
-        let c = &*self.cfg;
-        let t = &c.coords.t;
-        let n = t.ncols();
-        let j = DMatrix::from_diagonal(&DVector::from_column_slice(&c.j_eff));
-        let m = t.transpose() * j * t;
-        let tau = DVector::from_iterator(n, self.loads.tau.iter().copied());
-        let q = t.transpose() * tau;
-        let free: Vec<usize> = (0..n)
-            .filter(|&k| matches!(c.coords.coords[k], Coord::Body(_)))
-            .collect();
-        let mff = DMatrix::from_fn(free.len(), free.len(), |r, s| m[(free[r], free[s])]);
-        let qf = DVector::from_iterator(free.len(), free.iter().map(|&k| q[k]));
-        let a = mff
-            .lu()
-            .solve(&qf)
-            .unwrap_or_else(|| DVector::zeros(free.len()));
-        (0..n)
-            .map(|k| {
-                let need: f64 = free
-                    .iter()
-                    .enumerate()
-                    .map(|(r, &f)| m[(k, f)] * a[r])
-                    .sum();
-                need - q[k]
-            })
-            .collect()
-    }
-
-    /// Absolute tolerances at a relative tolerance: 1 rad and 1 rad/s for a free body's
-    /// angle (relative control above); for a mesh, the static penetration of one pair under
-    /// its load (floor 1e-12 m) and that penetration at the mesh's natural frequency, as in
-    /// the single mesh; for a shaft, its static twist (floor 1e-12 rad) and that twist at its
-    /// own frequency. 0: not under error control (the quadratures).
-    pub fn abs_tol(&self, rel_tol: f64) -> State {
-        let c = &*self.cfg;
-        let load = self.static_loads();
-        let mut atol = State::zeros();
-        for (k, coord) in c.coords.coords.iter().enumerate() {
-            let i = coord_index(k);
-            let mobility = c.mobility(&c.coords.rows[k]);
-            let (x, omega) = match *coord {
-                Coord::Body(_) => (1.0, 1.0),
-                Coord::Edge(Edge::Mesh(m)) => {
-                    let (delta, stiffness) = self.meshes[m].static_scale(load[k].abs());
-                    (delta, (stiffness * mobility).sqrt())
-                }
-                Coord::Edge(Edge::Shaft(j)) => {
-                    let sh = &c.spec.shafts[j];
-                    ((load[k].abs() / sh.k).max(1e-12), (sh.k * mobility).sqrt())
-                }
-            };
-            atol[i] = rel_tol * x;
-            atol[i + 1] = rel_tol * (x * omega).max(1e-12);
-            if matches!(coord, Coord::Body(_)) {
-                atol[i + 1] = rel_tol;
-            }
-        }
-        atol
     }
 }
 

@@ -1,0 +1,115 @@
+//! What the train reports at a state: energies, each mesh's readout and dte, and the meshes'
+//! statistics over the run.
+
+use super::*;
+
+impl Train {
+    fn kinetic_energy(&self, b: &Bodies) -> f64 {
+        let c = &*self.cfg;
+        (0..c.j_eff.len())
+            .map(|i| 0.5 * c.j_eff[i] * b.w[i] * b.w[i])
+            .sum()
+    }
+
+    /// Elastic energy of the meshes' carrying pairs and of the shafts.
+    pub fn elastic_energy(&self, y: &State) -> Result<f64, LawOutOfRange> {
+        let c = &*self.cfg;
+        let b = self.bodies(y);
+        let mut e = 0.0;
+        for (j, sh) in c.spec.shafts.iter().enumerate() {
+            let twist = self.shaft_state(j, y, Some(&b)).0;
+            e += 0.5 * sh.k * twist * twist;
+        }
+        for (m, mesh) in self.meshes.iter().enumerate() {
+            e += mesh
+                .contact_energy(&self.kin(m, y, &b))
+                .map_err(|e| named(m, e))?;
+        }
+        Ok(e)
+    }
+
+    /// (E_kin + E_el + W_loss - W_ext - E_gate, E_kin, E_el).
+    pub(super) fn energy_terms(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
+        let e_kin = self.kinetic_energy(&self.bodies(y));
+        let e_el = self.elastic_energy(y)?;
+        Ok((
+            e_kin + e_el + y[W_LOSS] - y[W_EXT] - self.e_gate,
+            e_kin,
+            e_el,
+        ))
+    }
+
+    /// (E_kin, E_el, the balance's residual against t = 0).
+    pub fn energy(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
+        let (balance, e_kin, e_el) = self.energy_terms(y)?;
+        Ok((e_kin, e_el, balance - self.e_start))
+    }
+
+    /// Mesh m's readout at y.
+    pub fn mesh_readout(&self, m: usize, y: &State) -> Result<mesh::MeshReadout, LawOutOfRange> {
+        self.mesh_readout_at(m, y, &self.bodies(y))
+    }
+
+    /// The same with the bodies at y already at hand (every mesh's outputs after a step).
+    pub fn mesh_readout_at(
+        &self,
+        m: usize,
+        y: &State,
+        b: &Bodies,
+    ) -> Result<mesh::MeshReadout, LawOutOfRange> {
+        let k = self.kin(m, y, b);
+        let (pairs, load) = self.meshes[m]
+            .compliant_pair_forces(&k)
+            .map_err(|e| named(m, e))?;
+        Ok(self.meshes[m].readout_from(&k, &pairs, &load))
+    }
+
+    /// Mesh m's dte (its forward penetration) at y.
+    pub fn dte(&self, m: usize, y: &State) -> f64 {
+        self.dte_and_rate(m, y).0
+    }
+
+    /// Mesh m's dte rate at y.
+    pub fn dte_rate(&self, m: usize, y: &State) -> f64 {
+        self.dte_and_rate(m, y).1
+    }
+
+    /// Adds the piece [t0, t1] (modes fixed) to each mesh's statistics.
+    pub fn observe(
+        &mut self,
+        t0: f64,
+        t1: f64,
+        y: &dyn Fn(f64) -> State,
+    ) -> Result<(), LawOutOfRange> {
+        let Some(mut all) = self.stats.take() else {
+            return Ok(());
+        };
+        let mut r = Ok(());
+        for (m, s) in all.iter_mut().enumerate() {
+            r = r.and(self.add_statistics(m, s, t0, t1, y));
+        }
+        self.stats = Some(all);
+        r
+    }
+
+    pub fn add_statistics(
+        &self,
+        m: usize,
+        s: &mut Statistics,
+        t0: f64,
+        t1: f64,
+        y: &dyn Fn(f64) -> State,
+    ) -> Result<(), LawOutOfRange> {
+        let force = |t: f64| -> Result<f64, LawOutOfRange> {
+            let r = self.mesh_readout(m, &y(t))?;
+            Ok(r.flank_force[0] + r.flank_force[1])
+        };
+        s.add(
+            self.meshes[m].contact_modes(),
+            t0,
+            t1,
+            &|t| self.dte(m, &y(t)),
+            &force,
+        )
+    }
+}
