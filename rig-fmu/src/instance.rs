@@ -221,7 +221,7 @@ impl<R: Rig> RigInstance<R> {
             };
             R::write_outputs(run, &mut self.outputs, &self.cache).map_err(error)?;
             self.lazy_fresh = false;
-            if let Some((name, x)) = self.outputs.first_non_finite() {
+            if let Some((name, x)) = R::first_non_finite(&self.outputs, &self.cache) {
                 return Err(non_finite_output(name, x, self.time()));
             }
             self.fresh = true;
@@ -236,7 +236,7 @@ impl<R: Rig> RigInstance<R> {
         if !self.lazy_fresh {
             let (m, y) = self.snap.current().expect("built by outputs()");
             R::write_lazy(m, &y, &mut self.outputs).map_err(error)?;
-            if let Some((name, x)) = self.outputs.first_non_finite() {
+            if let Some((name, x)) = R::first_non_finite(&self.outputs, &self.cache) {
                 return Err(non_finite_output(name, x, self.time()));
             }
             self.lazy_fresh = true;
@@ -272,10 +272,7 @@ impl<R: Rig> RigInstance<R> {
         check: impl Fn(&X) -> bool,
         apply: impl Fn(&mut Params<R>, &mut crate::Inputs<R>, Var<R>, X),
     ) -> Result<(), Failure> {
-        let (mut params, mut inputs) = (self.snap.params.clone(), self.snap.inputs.clone());
-        let mut extra = self.snap.extra.clone();
-        let now = self.time();
-        let mut any_parameter = false;
+        let mut vars = Vec::with_capacity(vrs.len());
         for (&vr, x) in vrs.iter().zip(values) {
             let v = lookup::<R::Table>(vr, kind)?;
             settable::<R::Table>(v, x, running)?;
@@ -285,15 +282,30 @@ impl<R: Rig> RigInstance<R> {
                     <R::Table as Table>::info(v).name
                 )));
             }
-            apply(&mut params, &mut inputs, v, x.clone());
-            any_parameter |= <R::Table as Table>::info(v).role == Role::Parameter;
+            vars.push(v);
+        }
+        let changed: Vec<Var<R>> = vars
+            .iter()
+            .copied()
+            .filter(|&v| <R::Table as Table>::info(v).role == Role::Parameter)
+            .collect();
+        // The parameters (about a thousand in a train) are copied only when a set changes one:
+        // inputs change at every communication step.
+        let mut params = (!changed.is_empty()).then(|| self.snap.params.clone());
+        let mut inputs = self.snap.inputs.clone();
+        let mut extra = self.snap.extra.clone();
+        let now = self.time();
+        for (&v, x) in vars.iter().zip(values) {
+            let p = params.as_mut().unwrap_or(&mut self.snap.params);
+            apply(p, &mut inputs, v, x.clone());
             R::on_set(&mut extra, v, now);
         }
-        // Inputs need only be finite (checked above); parameters are checked as a whole.
-        if any_parameter {
-            R::validate(&params).map_err(error)?;
+        // Inputs need only be finite (checked above); parameters against the table (the rig
+        // says how much a set can change).
+        if let Some(params) = params {
+            R::validate_changed(&params, &changed).map_err(error)?;
+            self.snap.params = params;
         }
-        self.snap.params = params;
         self.snap.inputs = inputs;
         self.snap.extra = extra;
         self.fresh = false;

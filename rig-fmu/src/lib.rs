@@ -171,6 +171,11 @@ pub trait Rig: Clone + std::fmt::Debug + PartialEq + Sized + 'static {
     fn rel_tol(p: &Params<Self>) -> f64;
     /// Checks the parameters as a whole (after a set of parameters).
     fn validate(p: &Params<Self>) -> Result<(), String>;
+    /// The same after a set of the `changed` parameters, the table valid before it: a rig
+    /// whose checks are per parameter checks only what the set can have changed.
+    fn validate_changed(p: &Params<Self>, _changed: &[Var<Self>]) -> Result<(), String> {
+        Self::validate(p)
+    }
     /// The run from the snapshot's parameters, inputs and experiment, at rel_tol.
     fn build(s: &Snapshot<Self>, rel_tol: f64, cache: &Self::Cache) -> Result<Self::Sim, String>;
     /// New inputs or tunable parameters after initialization: the run takes them.
@@ -183,6 +188,11 @@ pub trait Rig: Clone + std::fmt::Debug + PartialEq + Sized + 'static {
         out: &mut Outputs<Self>,
         cache: &Self::Cache,
     ) -> Result<(), String>;
+    /// The first output that is NaN or infinite after `write_outputs`, with its name. A rig
+    /// that writes only the outputs in use checks only those.
+    fn first_non_finite(out: &Outputs<Self>, _cache: &Self::Cache) -> Option<(&'static str, f64)> {
+        out.first_non_finite()
+    }
     /// Outputs computed only when read (`write_lazy`).
     fn is_lazy(_v: Var<Self>) -> bool {
         false

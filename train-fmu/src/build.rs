@@ -24,32 +24,63 @@ fn int(p: &Params, name: &str) -> i32 {
 /// Checks every parameter on its own, as the single mesh does: finite, and within the table's
 /// range. How they fit together (a tree, the geometry) is checked when the train is built.
 pub fn validate(p: &Params) -> Result<(), String> {
-    for info in VARIABLES {
-        if let Some(x) = p.get_real(info.var) {
-            if !x.is_finite() {
-                return Err(format!("parameter {} = {x}: must be finite", info.name));
-            }
-        }
-        let x = match (p.get_real(info.var), p.get_integer(info.var)) {
-            (Some(x), _) => x,
-            (None, Some(i)) => i as f64,
-            _ => continue,
-        };
-        if !applies(info, p) {
-            continue;
-        }
-        if let Some(why) = info.range.violation(x) {
-            return Err(format!("parameter {} = {x}: {why}", info.name));
+    // Each mesh's front end, read once.
+    let geometry: Vec<i32> = (1..=MAX_MESHES).map(|m| geometry(p, m)).collect();
+    VARIABLES
+        .iter()
+        .try_for_each(|info| check(p, info, &|m| geometry[m - 1]))
+}
+
+/// `validate` after a set of the `changed` parameters, the others valid before: the changed
+/// ones, and all of a mesh's front-end parameters when its front end changed. A master may set
+/// start values one at a time, and the table holds about a thousand.
+pub fn validate_changed(p: &Params, changed: &[Var]) -> Result<(), String> {
+    let geometry = |m: usize| geometry(p, m);
+    for &v in changed {
+        let info = v.info();
+        check(p, info, &geometry)?;
+        if let Some(("mesh", m, "geometry")) = element(info.name) {
+            VARIABLES
+                .iter()
+                .filter(|i| {
+                    i.geometry.is_some()
+                        && matches!(element(i.name), Some(("mesh", k, _)) if k == m)
+                })
+                .try_for_each(|i| check(p, i, &geometry))?;
         }
     }
     Ok(())
 }
 
-/// A geometry front end's own parameter is checked only when that front end is used.
-fn applies(info: &VarInfo, p: &Params) -> bool {
-    match (info.geometry, element(info.name)) {
-        (Some(g), Some(("mesh", m, _))) => int(p, &format!("mesh[{m}].geometry")) == g,
-        _ => true,
+/// Mesh m's front end (1-based).
+fn geometry(p: &Params, m: usize) -> i32 {
+    int(p, &format!("mesh[{m}].geometry"))
+}
+
+/// One parameter: finite, and within its range if its mesh's front end (`geometry`, by mesh)
+/// uses it.
+fn check(p: &Params, info: &VarInfo, geometry: &dyn Fn(usize) -> i32) -> Result<(), String> {
+    let x = match p.get_real(info.var) {
+        Some(x) if !x.is_finite() => {
+            return Err(format!("parameter {} = {x}: must be finite", info.name));
+        }
+        Some(x) => x,
+        None => match p.get_integer(info.var) {
+            Some(i) => i as f64,
+            None => return Ok(()),
+        },
+    };
+    // Most variables belong to every front end: their names are not parsed.
+    if let Some(g) = info.geometry {
+        if let Some(("mesh", m, _)) = element(info.name) {
+            if geometry(m) != g {
+                return Ok(());
+            }
+        }
+    }
+    match info.range.violation(x) {
+        Some(why) => Err(format!("parameter {} = {x}: {why}", info.name)),
+        None => Ok(()),
     }
 }
 
@@ -203,4 +234,50 @@ pub fn loads(p: &Params, i: &Inputs, v: &LoadVars) -> TrainLoads {
         })
         .collect();
     TrainLoads { tau, coef }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// After every set from a valid table, `validate_changed` refuses exactly what `validate`
+    /// refuses, the front-end switch included (a parameter of the other front end is not
+    /// checked until its front end is chosen). A refused set leaves the table as it was, as
+    /// the FMU does.
+    #[test]
+    fn the_check_of_a_set_agrees_with_the_whole_check() {
+        let mut p = Params::default();
+        validate(&p).expect("the defaults are valid");
+        let steps: &[(&[(&str, f64)], bool)] = &[
+            (&[("mesh[3].rA", -1.0)], false),
+            (&[("mesh[3].geometry", 2.0)], true),
+            (&[("mesh[3].rA", -1.0)], true),
+            (&[("mesh[3].geometry", 1.0)], false),
+            (
+                &[("mesh[3].module", 0.002), ("mesh[3].geometry", 2.0)],
+                true,
+            ),
+            (&[("body[2].J", f64::NAN)], false),
+            (&[("body[2].J", 0.5), ("n_meshes", 99.0)], false),
+            (&[("mesh[16].zA", 2.0)], false),
+            (&[("n_bodies", 3.0)], true),
+        ];
+        for &(set, ok) in steps {
+            let mut q = p.clone();
+            let changed: Vec<Var> = set
+                .iter()
+                .map(|&(name, x)| {
+                    let v = var(name);
+                    assert!(q.set_real(v, x) || q.set_integer(v, x as i32), "{name}");
+                    v
+                })
+                .collect();
+            let (whole, part) = (validate(&q), validate_changed(&q, &changed));
+            assert_eq!(whole.is_ok(), ok, "{set:?}: {whole:?}");
+            assert_eq!(part, whole, "{set:?}");
+            if ok {
+                p = q;
+            }
+        }
+    }
 }

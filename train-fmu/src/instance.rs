@@ -48,6 +48,8 @@ pub struct Cache {
     per_body: Vec<Vec<(Var, Source)>>,
     per_shaft: Vec<Vec<(Var, Source)>>,
     per_mesh: Vec<Vec<(Var, Source)>>,
+    /// The first output `write_outputs` found NaN or infinite, if any.
+    non_finite: std::cell::Cell<Option<(&'static str, f64)>>,
     /// The element counts the outputs were last written for: the others read 0 and need no
     /// writing until the counts change.
     written: std::cell::Cell<Option<(usize, usize, usize)>>,
@@ -84,10 +86,25 @@ impl Default for Cache {
                 }
                 _ => None,
             }),
+            non_finite: std::cell::Cell::new(None),
             sources,
             written: std::cell::Cell::new(None),
             load_vars: build::LoadVars::default(),
         }
+    }
+}
+
+impl Cache {
+    /// The outputs of the elements in use, with their sources.
+    fn in_use(
+        &self,
+        (n_bodies, n_shafts, n_meshes): (usize, usize, usize),
+    ) -> impl Iterator<Item = &(Var, Source)> {
+        self.per_body[..n_bodies]
+            .iter()
+            .chain(&self.per_shaft[..n_shafts])
+            .chain(&self.per_mesh[..n_meshes])
+            .flatten()
     }
 }
 
@@ -189,35 +206,44 @@ fn write_outputs(
         *o = Outputs::default();
         cache.written.set(Some(counts));
     }
-    let in_use = cache.per_body[..n_bodies]
-        .iter()
-        .chain(&cache.per_shaft[..n_shafts])
-        .chain(&cache.per_mesh[..per_mesh.len()])
-        .flatten();
-    for &(v, s) in in_use {
+    // Only the outputs written are checked for NaN or infinity (the others read 0).
+    let mut non_finite = None;
+    let mut put = |o: &mut Outputs, v: Var, x: f64| {
+        if !x.is_finite() && non_finite.is_none() {
+            non_finite = Some((v.info().name, x));
+        }
+        o.set_real(v, x);
+    };
+    for &(v, s) in cache.in_use(counts) {
         match s {
-            Source::BodyTheta(i) if i < n_bodies => o.set_real(v, b.theta[i]),
-            Source::BodyW(i) if i < n_bodies => o.set_real(v, b.w[i]),
-            Source::ShaftTau(j) if j < n_shafts => o.set_real(v, train.shaft_torque(j, y)),
-            Source::ShaftTwist(j) if j < n_shafts => o.set_real(v, train.shaft_twist(j, y)),
+            Source::BodyTheta(i) if i < n_bodies => put(o, v, b.theta[i]),
+            Source::BodyW(i) if i < n_bodies => put(o, v, b.w[i]),
+            Source::ShaftTau(j) if j < n_shafts => put(o, v, train.shaft_torque(j, y)),
+            Source::ShaftTwist(j) if j < n_shafts => put(o, v, train.shaft_twist(j, y)),
             Source::Mesh(m, sv) if m < per_mesh.len() => {
                 if let Some(x) = per_mesh[m].get_real(sv) {
-                    o.set_real(v, x)
+                    put(o, v, x)
                 } else {
-                    o.set_integer(v, per_mesh[m].get_integer(sv).unwrap_or(0))
+                    o.set_integer(v, per_mesh[m].get_integer(sv).unwrap_or(0));
                 }
             }
-            _ => false,
+            _ => {}
         };
     }
     let (e_kin, e_el, residual) = train.energy(y).map_err(|e| e.to_string())?;
-    o.E_kin = e_kin;
-    o.E_el = e_el;
-    o.energy_residual = residual;
-    o.W_ext = y[train::W_EXT];
-    o.W_loss = y[train::W_LOSS];
-    o.E_gate = train.e_gate;
-    o.housing_tau = train.housing_torque(y).map_err(|e| e.to_string())?;
+    let housing = train.housing_torque(y).map_err(|e| e.to_string())?;
+    for (v, x) in [
+        (Var::E_kin, e_kin),
+        (Var::E_el, e_el),
+        (Var::energy_residual, residual),
+        (Var::W_ext, y[train::W_EXT]),
+        (Var::W_loss, y[train::W_LOSS]),
+        (Var::E_gate, train.e_gate),
+        (Var::housing_tau, housing),
+    ] {
+        put(o, v, x);
+    }
+    cache.non_finite.set(non_finite);
     o.n_events = saturate(train.n_events);
     o.n_steps = saturate(st.steps);
     o.n_rejected_steps = saturate(st.rejected);
@@ -253,6 +279,10 @@ impl Rig for TrainRig {
         build::validate(p)
     }
 
+    fn validate_changed(p: &Params, changed: &[Var]) -> Result<(), String> {
+        build::validate_changed(p, changed)
+    }
+
     fn build(s: &Snapshot, rel_tol: f64, cache: &Cache) -> Result<TrainSimulation, String> {
         fresh_simulation(s, rel_tol, &cache.load_vars)
     }
@@ -264,6 +294,11 @@ impl Rig for TrainRig {
         } else if let Some(sim) = s.sim.as_mut() {
             sim.set_loads(loads);
         }
+    }
+
+    /// What `write_outputs` found: it checks the outputs it writes (the others read 0).
+    fn first_non_finite(_out: &Outputs, cache: &Cache) -> Option<(&'static str, f64)> {
+        cache.non_finite.get()
     }
 
     fn write_outputs(
