@@ -4,6 +4,8 @@ the base scenes must cost what they cost before, within noise).
 
     python3 tools/cost_vs_rev.py REV [--rounds 15] [--scenes damped,paper-m2,...]
         [--old-binary PATH]     (REV's run_scene already built: skips the worktree build)
+        [--train]               (the gear trains: scenes/train/*.toml through run_train_scene,
+                                 CPU time of the FMU's Slave, the setup included)
 
 Builds REV's examples/run_scene in a git worktree (target/cost-vs-rev/, its own target dir), then
 runs both binaries on every scene through the C API, alternating old and new in each round so
@@ -23,7 +25,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def build(rev: str) -> Path:
+def build(rev: str, example: str = "run_scene", package: str = "") -> Path:
     base = ROOT / "target" / "cost-vs-rev"
     tree = base / "tree"
     if tree.exists():
@@ -31,9 +33,10 @@ def build(rev: str) -> Path:
     subprocess.run(["git", "worktree", "add", "--detach", str(tree), rev], cwd=ROOT, check=True,
                    stdout=subprocess.DEVNULL)
     env = {**__import__("os").environ, "CARGO_TARGET_DIR": str(base / "target")}
-    subprocess.run(["cargo", "build", "-q", "--release", "--example", "run_scene"], cwd=tree,
+    pkg = ["-p", package] if package else []
+    subprocess.run(["cargo", "build", "-q", "--release", *pkg, "--example", example], cwd=tree,
                    env=env, check=True)
-    return base / "target" / "release" / "examples" / "run_scene"
+    return base / "target" / "release" / "examples" / example
 
 
 def wall(binary: Path, scene: Path) -> float:
@@ -42,13 +45,59 @@ def wall(binary: Path, scene: Path) -> float:
     return json.loads(out.splitlines()[0])["wall_median_s"]
 
 
+def train_cpu(binary: Path, scene: dict) -> float:
+    """The median thread CPU time of 3 runs of a train scene (tools/work_precision.py's way of
+    handing it to run_train_scene: the scene's start values, its input table)."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    from work_precision import train_start_args  # noqa: E402
+    cmd = [str(binary), "--stop-time", repr(float(scene["stop_time"])), "--output-interval",
+           repr(float(scene["output_interval"])), "--reps", "3"] + train_start_args(scene)
+    if "input_file" in scene:
+        cmd += ["--input-file", str(ROOT / "scenes" / "train" / scene["input_file"])]
+    run = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    if run.returncode != 0:
+        return None
+    return json.loads(run.stdout.strip().splitlines()[-1])["cpu_median_s"]
+
+
+def main_train(a) -> int:
+    import tomllib
+    example, package = "run_train_scene", "spur_gear_train"
+    subprocess.run(["cargo", "build", "-q", "--release", "-p", package, "--example", example],
+                   cwd=ROOT, check=True)
+    new = ROOT / "target" / "release" / "examples" / example
+    old = Path(a.old_binary) if a.old_binary else build(a.rev, example, package)
+    names = [s for s in a.scenes.split(",") if s] or sorted(
+        p.stem for p in (ROOT / "scenes" / "train").glob("*.toml"))
+    print(f"new = working tree, old = {a.rev}; {a.rounds} rounds, each the median thread CPU time "
+          "of 3 runs of the FMU's Slave (run_train_scene), old and new alternating")
+    print("| scene | old [ms] | new [ms] | new/old (median) | new/old (min..max) |")
+    print("|---|---|---|---|---|")
+    for n in names:
+        scene = tomllib.loads((ROOT / "scenes" / "train" / f"{n}.toml").read_text())
+        if train_cpu(old, scene) is None:
+            print(f"| `{n}` | (fails at {a.rev}) | | | |", flush=True)
+            continue
+        o, w = [], []
+        for _ in range(a.rounds):
+            o.append(train_cpu(old, scene))
+            w.append(train_cpu(new, scene))
+        r = [x / y for x, y in zip(w, o)]
+        print(f"| `{n}` | {1e3 * statistics.median(o):.3f} | {1e3 * statistics.median(w):.3f} | "
+              f"{statistics.median(r):.3f} | {min(r):.2f}..{max(r):.2f} |", flush=True)
+    return 0
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("rev")
     ap.add_argument("--rounds", type=int, default=15)
     ap.add_argument("--scenes", default="")
     ap.add_argument("--old-binary", default="")
+    ap.add_argument("--train", action="store_true")
     a = ap.parse_args()
+    if a.train:
+        return main_train(a)
     subprocess.run(["cargo", "build", "-q", "--release", "--example", "run_scene"], cwd=ROOT,
                    check=True)
     new = ROOT / "target" / "release" / "examples" / "run_scene"
