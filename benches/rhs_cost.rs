@@ -2,7 +2,7 @@
 //! 1.2 times), on the standard pair (geometry 2, 22/33, module 10 mm) at states along one mesh
 //! cycle of a loaded, damped run with friction: `PaperRig::rhs` alone, both models in the same
 //! process, interleaved, medians of repeated timings. Since Johnson's law reads the W_-1 table
-//! too (issue 12), the ratio reads about 1.65: see the README, "A real gear's mesh".
+//! too (issue 12), the ratio reads about 1.65: see docs/tooth-structure.md, "Stiffness and cost".
 //!
 //! Also `PaperRig::rhs` of the paper rig's scenes (paper-m2 and damped: Johnson, no friction) over one
 //! base pitch, the cost per evaluation behind the floors in docs/integrators.md.
@@ -67,7 +67,7 @@ fn setup(contact_model: i32) -> (PaperRig, Vec<State>) {
     (mesh, states)
 }
 
-/// The README's ring pair (20/60, module 2 mm, xB = 0.5) as an internal pair, or as an external
+/// docs/internal-pair.md's ring pair (20/60, module 2 mm, xB = 0.5) as an internal pair, or as an external
 /// pair of the same gear data, at 64 positions over the double-contact zone at a loaded
 /// penetration: both do one law evaluation per flank and two pairs' friction.
 fn pair_setup(internal: bool, mu: f64, v_reg: f64) -> (PaperRig, Vec<State>) {

@@ -18,7 +18,7 @@ fn events(p: &Params, i: &Inputs, rtol: f64, t_end: f64, max_step: f64) -> Vec<(
     log
 }
 
-/// The pair of `base` as a pinion in a ring (planetary.md §1, the README's worked pair):
+/// The pair of `base` as a pinion in a ring (planetary.md §1, docs/internal-pair.md's worked pair):
 /// the same events must be located on it.
 fn ring(base: Params) -> Params {
     Params {

@@ -12,7 +12,7 @@ use spur_gear_mesh::model::PaperRig;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
 use std::f64::consts::PI;
 
-/// 20/60, module 2 mm, 20 deg, xB = 0.5 (the README's worked pair): alpha_w = 23.3 deg,
+/// 20/60, module 2 mm, 20 deg, xB = 0.5 (docs/internal-pair.md's worked pair): alpha_w = 23.3 deg,
 /// eps = 1.73, the pitch point inside the segment. Inertias of steel discs 20 mm wide.
 fn ring(chi: f64, mu: f64) -> Params {
     Params {

@@ -176,7 +176,7 @@ fn documentation(t: &Table) -> String {
     h
 }
 
-/// The README's worked internal pair: 20/60, module 2 mm, 20 deg, xB = 0.5.
+/// docs/internal-pair.md's worked internal pair: 20/60, module 2 mm, 20 deg, xB = 0.5.
 fn internal_example() -> Params {
     Params {
         geometry: 2,

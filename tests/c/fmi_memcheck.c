@@ -141,7 +141,7 @@ static char *serialize(const struct api *f, fmi2Component c, fmi2FMUstate s, siz
 /* Model Exchange: explicit Euler (2 ms in steps of 1e-6 s, stable on the damped paper rig),
  * with event mode whenever an indicator changes sign, FMU states in continuous-time mode, and
  * bad sizes and values on a second instance. */
-/* A pinion in a ring (the README's worked pair, scenes/internal-damped.toml) with tooth counts
+/* A pinion in a ring (docs/internal-pair.md's worked pair, scenes/internal-damped.toml) with tooth counts
  * zA/zB and profile shift xB; returns the status of fmi2ExitInitializationMode. */
 static fmi2Status init_ring(void *lib, const struct api *f, fmi2Component c, int za, int zb, fmi2Real xb) {
     fmi2SetIntegerTYPE *set_int = (fmi2SetIntegerTYPE *)sym(lib, "fmi2SetInteger");

@@ -347,7 +347,7 @@ pub const PAPER_SCENE: &[(&str, f64)] = &[
     ("chi", 10.0),
 ];
 
-/// A pinion in a ring (the README's worked pair, scenes/internal-damped.toml): with
+/// A pinion in a ring (docs/internal-pair.md's worked pair, scenes/internal-damped.toml): with
 /// `internal` true, these integers and reals on top of the paper scene's loads.
 pub const RING_PAIR_INTEGERS: &[(&str, i32)] = &[("geometry", 2), ("zA", 20), ("zB", 60)];
 pub const RING_PAIR: &[(&str, f64)] = &[

@@ -34,10 +34,10 @@ from conftest import Instance
 EPS = 2.0 ** -52          # double precision
 ALPHA_0 = math.radians(20)  # the FMU's default pressure_angle (0.3490658503988659)
 
-# The valid ring pair of the README and scenes/internal-damped.toml.
+# The valid ring pair of docs/internal-pair.md and scenes/internal-damped.toml.
 RING = dict(geometry=2, internal=True, module=0.002, zA=20, zB=60, xB=0.5, width=0.02,
             backlash=5e-5)
-# An external pair (README, "The centre distance"): 20/40, m = 3 mm, backlash 0.1 mm.
+# An external pair (docs/internal-pair.md, "The centre distance"): 20/40, m = 3 mm, backlash 0.1 mm.
 EXTERNAL = dict(geometry=2, module=0.003, zA=20, zB=40, width=0.02, backlash=1e-4)
 
 # SpurGearTrain: two bodies joined by mesh 1 (A = body 1, B = body 2), no shaft.

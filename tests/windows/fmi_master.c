@@ -727,7 +727,7 @@ int main(int argc, char **argv) {
     /* FMI_MASTER_X87=53: the x87 control word of a thread Windows creates and of an MSVC-built
      * master, 0x27f (53-bit precision), instead of MinGW's 0x37f (64-bit) on the main thread. The
      * DLL's exp/pow/log/sin/cos/atan2 come from MinGW's runtime and run on the x87 unit, so
-     * their last bits depend on it (README, "Which platform"). */
+     * their last bits depend on it (docs/platforms.md, "How close Windows is to Linux, and why"). */
     {
         const char *x87 = getenv("FMI_MASTER_X87");
         unsigned short cw;

@@ -12,7 +12,7 @@
    the DLL twice, with the x87 control word of MinGW's main thread (64-bit precision) and with
    Windows' default (53-bit, FMI_MASTER_X87=53): MinGW's exp/pow/log/sin/cos/atan2 in the DLL
    run on the x87 unit. The CSVs of the DLL
-   must match the .so's within the bound explained in the README ("Which platform"): at most
+   must match the .so's within the bound explained in docs/platforms.md ("How close Windows is to Linux, and why"): at most
    twice the solution's own error, estimated per scene as the .so's deviation from a run at a
    100 times tighter rel_tol (floor: 1e-9 of the variable's largest magnitude), and never more
    than the scene's compare tolerance against the independent reference.
@@ -260,7 +260,7 @@ def scene_tests(r, so, dll, md, guid):
 def me_states_threads_errors(r, so, dll, md, guid):
     scene, _ = load_scene(ROOT / "scenes" / "damped.toml")
     # Model Exchange: 20 ms of the damped paper scene with RK4 at 1e-6 s (stable: below
-    # 2.8/omega of the mesh vibration; the README's docs say explicit steps near 1e-6 s).
+    # 2.8/omega of the mesh vibration; docs/interface.md says explicit steps near 1e-6 s).
     r.write("me.txt", scene_text(md, scene, stop_time=0.02, me_step=1e-6))
     r.write("states.txt", scene_text(md, scene, stop_time=0.02))
     r.write("threads.txt", scene_text(md, scene, stop_time=0.05))
