@@ -11,13 +11,13 @@ use super::instance::Snapshot;
 use crate::driver::exchange::Exchange;
 use crate::driver::simulation::Simulation;
 use crate::driver::Method;
-use crate::model::contact::N_EVENTS;
 use crate::variables::{Causality, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
-/// The version of the payload below (the envelope's format version): 7 since a Model Exchange
-/// instance saves its point (6: postcard; 1-5 were fields written one by one).
-pub const FORMAT_VERSION: u32 = 7;
+/// The version of the payload below (the envelope's format version): 8 since the driver saves
+/// the margins of the event functions in use (7: a Model Exchange instance saves its point;
+/// 6: postcard; 1-5 were fields written one by one).
+pub const FORMAT_VERSION: u32 = 8;
 
 /// The checksum only proves the bytes arrived intact; a state edited with a recomputed checksum
 /// must not bring NaN, infinity or an invalid tolerance into the instance.
@@ -97,7 +97,8 @@ fn rebuild(sim: &mut Simulation, s: &Snapshot) -> Result<(), String> {
     }
     sim.rig.restore_config(&fresh.rig);
     let d = &sim.driver;
-    if d.pending.is_some_and(|p| p.index >= N_EVENTS) {
+    // The driver's event functions are the mesh's in use (16 without shape deviations).
+    if d.pending.is_some_and(|p| p.index >= sim.rig.n_event_fns()) {
         return Err(format!("event index {:?} out of range", d.pending));
     }
     if matches!(d.method, Method::Bdf(_)) && !d.needs_restart {
@@ -279,15 +280,15 @@ mod tests {
     }
 
     /// A state written by an older build (format version 5: fields written one by one; 6: no
-    /// Model Exchange run) is refused by its version before anything of it is read, with both
-    /// versions named.
+    /// Model Exchange run; 7: margins at the capacity's size) is refused by its version before
+    /// anything of it is read, with both versions named.
     #[test]
     fn a_state_of_an_older_format_is_refused_by_its_version() {
-        for old in [5u32, 6] {
+        for old in [5u32, 6, 7] {
             let mut bytes = encode(FmiState::StepComplete, &running(1));
             bytes[8..12].copy_from_slice(&old.to_le_bytes());
             let e = decode(&bytes).unwrap_err();
-            let (a, b) = (format!("state format version {old}"), "reads version 7");
+            let (a, b) = (format!("state format version {old}"), "reads version 8");
             assert!(e.contains(&a) && e.contains(b), "{e}");
         }
     }
@@ -310,5 +311,15 @@ mod tests {
         let bytes = w.into_bytes();
         let e = read(&mut Reader::new(&bytes)).unwrap_err();
         assert!(e.contains("invalid integrator settings"), "{e}");
+        // An event pending on a function the mesh does not have: without shape deviations it
+        // has 16 (contact::BASE_EVENTS), the driver's margins are those.
+        let mut bad = s.clone();
+        let pending = crate::driver::PendingEvent { t: 3.4e-3, index: 20 };
+        bad.sim.as_mut().unwrap().driver.pending = Some(pending);
+        let mut w = Writer::default();
+        write(&mut w, &bad);
+        let bytes = w.into_bytes();
+        let e = read(&mut Reader::new(&bytes)).unwrap_err();
+        assert!(e.contains("event index"), "{e}");
     }
 }

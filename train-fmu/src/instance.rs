@@ -262,7 +262,8 @@ impl Rig for TrainRig {
     const MODEL_NAME: &'static str = MODEL_IDENTIFIER;
     const LOG_CATEGORIES: &'static [&'static str] = LOG_CATEGORIES;
     const STATE_MAGIC: [u8; 8] = *b"SGTSTATE";
-    const STATE_FORMAT_VERSION: u32 = 1;
+    /// 2 since the driver saves the margins of the event functions in use, packed.
+    const STATE_FORMAT_VERSION: u32 = 2;
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
     const STATES: &'static [(Var, Var)] = STATES;
@@ -463,9 +464,8 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
     if values.iter().any(|v| !v.is_finite()) || !(d.tol.rtol >= 1e-14 && d.tol.rtol <= 0.1) {
         return Err("a value of the simulation state is not finite or out of range".into());
     }
-    if d.pending
-        .is_some_and(|p| p.index >= gear_model::model::train::N_MARGINS)
-    {
+    // The driver's event functions are the meshes' in use, packed (`Train::event_of`).
+    if d.pending.is_some_and(|p| p.index >= sim.train.n_event_fns()) {
         return Err("an event index in the state is out of range".into());
     }
     Ok(())
