@@ -39,8 +39,11 @@ impl PartialEq for MarginCache {
 }
 
 impl MarginCache {
+    /// Missing from now on; the buffers keep their room (a saved state holds no stale values).
     pub(super) fn clear(&mut self) {
         self.at = None;
+        self.margins.clear();
+        self.rates.clear();
     }
 }
 
@@ -155,10 +158,13 @@ impl<S: System + Clone + 'static> Driver<S> {
         );
         // The end's margins start the next step, unless the step ends at an event.
         self.start = MarginCache {
-            at: best.is_none().then_some(t1),
+            at: Some(t1),
             margins: end,
             rates: end_rate,
         };
+        if best.is_some() {
+            self.start.clear();
+        }
         let sc = &mut self.scratch;
         (sc.end, sc.end_rate, sc.mid) = (start, start_rate, mid);
         (sc.probe, sc.probe_rate) = probe;
