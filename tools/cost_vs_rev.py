@@ -45,7 +45,7 @@ def wall(binary: Path, scene: Path) -> float:
     return json.loads(out.splitlines()[0])["wall_median_s"]
 
 
-def train_cpu(binary: Path, scene: dict) -> float:
+def train_cpu(binary: Path, scene: dict) -> float | None:
     """The median thread CPU time of 3 runs of a train scene (tools/work_precision.py's way of
     handing it to run_train_scene: the scene's start values, its input table)."""
     sys.path.insert(0, str(ROOT / "tools"))
@@ -60,6 +60,26 @@ def train_cpu(binary: Path, scene: dict) -> float:
     return json.loads(run.stdout.strip().splitlines()[-1])["cpu_median_s"]
 
 
+def table(names, rounds, heading, time_old, time_new) -> None:
+    """The Markdown table: per scene, `rounds` alternating timings of old and new, their medians
+    and the median and spread of the per-round ratios. A scene the old one cannot run (time
+    None) gets a row saying so."""
+    print(heading)
+    print("| scene | old [ms] | new [ms] | new/old (median) | new/old (min..max) |")
+    print("|---|---|---|---|---|")
+    for n in names:
+        if time_old(n) is None:
+            print(f"| `{n}` | (fails at the old commit) | | | |", flush=True)
+            continue
+        o, w = [], []
+        for _ in range(rounds):
+            o.append(time_old(n))
+            w.append(time_new(n))
+        r = [x / y for x, y in zip(w, o)]
+        print(f"| `{n}` | {1e3 * statistics.median(o):.3f} | {1e3 * statistics.median(w):.3f} | "
+              f"{statistics.median(r):.3f} | {min(r):.2f}..{max(r):.2f} |", flush=True)
+
+
 def main_train(a) -> int:
     import tomllib
     example, package = "run_train_scene", "spur_gear_train"
@@ -69,22 +89,12 @@ def main_train(a) -> int:
     old = Path(a.old_binary) if a.old_binary else build(a.rev, example, package)
     names = [s for s in a.scenes.split(",") if s] or sorted(
         p.stem for p in (ROOT / "scenes" / "train").glob("*.toml"))
-    print(f"new = working tree, old = {a.rev}; {a.rounds} rounds, each the median thread CPU time "
-          "of 3 runs of the FMU's Slave (run_train_scene), old and new alternating")
-    print("| scene | old [ms] | new [ms] | new/old (median) | new/old (min..max) |")
-    print("|---|---|---|---|---|")
-    for n in names:
-        scene = tomllib.loads((ROOT / "scenes" / "train" / f"{n}.toml").read_text())
-        if train_cpu(old, scene) is None:
-            print(f"| `{n}` | (fails at {a.rev}) | | | |", flush=True)
-            continue
-        o, w = [], []
-        for _ in range(a.rounds):
-            o.append(train_cpu(old, scene))
-            w.append(train_cpu(new, scene))
-        r = [x / y for x, y in zip(w, o)]
-        print(f"| `{n}` | {1e3 * statistics.median(o):.3f} | {1e3 * statistics.median(w):.3f} | "
-              f"{statistics.median(r):.3f} | {min(r):.2f}..{max(r):.2f} |", flush=True)
+    scene = {n: tomllib.loads((ROOT / "scenes" / "train" / f"{n}.toml").read_text())
+             for n in names}
+    table(names, a.rounds,
+          f"new = working tree, old = {a.rev}; {a.rounds} rounds, each the median thread CPU "
+          "time of 3 runs of the FMU's Slave (run_train_scene), old and new alternating",
+          lambda n: train_cpu(old, scene[n]), lambda n: train_cpu(new, scene[n]))
     return 0
 
 
@@ -106,19 +116,11 @@ def main() -> int:
         p.stem for p in (ROOT / "scenes").glob("*.toml")
         if subprocess.run([str(old), str(p), "--reps", "1", "--stop-time", "1e-4"], cwd=ROOT,
                           capture_output=True).returncode == 0)
-    print(f"new = working tree, old = {a.rev}; {a.rounds} rounds, each the median of 3 runs "
-          "through the C API, old and new alternating")
-    print("| scene | old [ms] | new [ms] | new/old (median) | new/old (min..max) |")
-    print("|---|---|---|---|---|")
-    for n in names:
-        scene = ROOT / "scenes" / f"{n}.toml"
-        o, w = [], []
-        for _ in range(a.rounds):
-            o.append(wall(old, scene))
-            w.append(wall(new, scene))
-        r = [x / y for x, y in zip(w, o)]
-        print(f"| `{n}` | {1e3 * statistics.median(o):.3f} | {1e3 * statistics.median(w):.3f} | "
-              f"{statistics.median(r):.3f} | {min(r):.2f}..{max(r):.2f} |", flush=True)
+    table(names, a.rounds,
+          f"new = working tree, old = {a.rev}; {a.rounds} rounds, each the median of 3 runs "
+          "through the C API, old and new alternating",
+          lambda n: wall(old, ROOT / "scenes" / f"{n}.toml"),
+          lambda n: wall(new, ROOT / "scenes" / f"{n}.toml"))
     return 0
 
 

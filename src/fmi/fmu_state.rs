@@ -314,7 +314,10 @@ mod tests {
         // An event pending on a function the mesh does not have: without shape deviations it
         // has 16 (contact::BASE_EVENTS), the driver's margins are those.
         let mut bad = s.clone();
-        let pending = crate::driver::PendingEvent { t: 3.4e-3, index: 20 };
+        let pending = crate::driver::PendingEvent {
+            t: 3.4e-3,
+            index: 20,
+        };
         bad.sim.as_mut().unwrap().driver.pending = Some(pending);
         let mut w = Writer::default();
         write(&mut w, &bad);

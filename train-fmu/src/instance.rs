@@ -465,7 +465,9 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
         return Err("a value of the simulation state is not finite or out of range".into());
     }
     // The driver's event functions are the meshes' in use, packed (`Train::event_of`).
-    if d.pending.is_some_and(|p| p.index >= sim.train.n_event_fns()) {
+    if d.pending
+        .is_some_and(|p| p.index >= sim.train.n_event_fns())
+    {
         return Err("an event index in the state is out of range".into());
     }
     Ok(())

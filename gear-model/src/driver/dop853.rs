@@ -37,6 +37,17 @@ impl<const M: usize> Row<M> {
     }
 }
 
+/// Stages in order: each row's argument y + h sum a k into the buffer `arg` (one buffer that
+/// starts as y, `Row::step_into`), then f there into k[j].
+macro_rules! stages {
+    ($sys:ident, $arg:ident, $y:ident, $h:ident, $k:ident, $n:ident; $($row:ident => $j:expr),*) => {
+        $(
+            $row.step_into(&mut $arg, $y, $h, &$k[..], $n);
+            $sys.rhs(&$arg, &mut $k[$j])?;
+        )*
+    };
+}
+
 /// Stage 2.
 const A2: Row<1> = Row {
     k: [0],
@@ -374,30 +385,9 @@ impl<Y: Vector> Dop853<Y> {
         k: &mut [Y; 16],
     ) -> Result<(Y, f64), S::Error> {
         let (y, n) = (&self.y, sys.dim());
-        // The stages' arguments share one buffer that starts as y (`step_into`).
         let mut arg = *y;
-        A2.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[1])?;
-        A3.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[2])?;
-        A4.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[3])?;
-        A5.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[4])?;
-        A6.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[5])?;
-        A7.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[6])?;
-        A8.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[7])?;
-        A9.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[8])?;
-        A10.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[9])?;
-        A11.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[10])?;
-        A12.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[11])?;
+        stages!(sys, arg, y, h, k, n; A2 => 1, A3 => 2, A4 => 3, A5 => 4, A6 => 5, A7 => 6);
+        stages!(sys, arg, y, h, k, n; A8 => 7, A9 => 8, A10 => 9, A11 => 10, A12 => 11);
         let mut y1 = *y;
         B.step_into(&mut y1, y, h, &k[..], n);
         let (mut s5, mut s3, mut count) = (0.0, 0.0, 0);
@@ -429,12 +419,7 @@ impl<Y: Vector> Dop853<Y> {
         let (y, n) = (&self.y, sys.dim());
         sys.rhs(y1, &mut k[12])?;
         let mut arg = *y;
-        A14.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[13])?;
-        A15.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[14])?;
-        A16.step_into(&mut arg, y, h, &k[..], n);
-        sys.rhs(&arg, &mut k[15])?;
+        stages!(sys, arg, y, h, k, n; A14 => 13, A15 => 14, A16 => 15);
         // In place: past n, rcont[0] holds y's constant components and the others 0
         // (`restart`).
         let r = &mut self.rcont;

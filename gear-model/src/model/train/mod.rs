@@ -525,7 +525,16 @@ impl Train {
 
     /// The counter-clockwise torque the meshes and shafts apply to the housing at y.
     pub fn housing_torque(&self, y: &State) -> Result<f64, LawOutOfRange> {
-        Ok(self.torques(y, &self.bodies(y))?.housing)
+        // Read after every communication step: a train that does not touch the housing
+        // evaluates no force law for it.
+        if !self.cfg.structure.uses_housing {
+            return Ok(0.0);
+        }
+        by_slots!(self.housing_torque_in(y))
+    }
+
+    fn housing_torque_in<const N: usize>(&self, y: &State) -> Result<f64, LawOutOfRange> {
+        Ok(self.torques(y, &self.bodies_in::<N>(y))?.housing)
     }
 
     /// Right-hand side with the current modes: the bodies' accelerations (the inertias are
