@@ -6,5 +6,6 @@
 
 pub mod build;
 pub mod exports;
+pub mod gearbox;
 pub mod instance;
 pub mod variables;

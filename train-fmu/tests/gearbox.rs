@@ -1,0 +1,228 @@
+//! Gearbox files (gearbox-file.md §1) through SpurGearTrain's start values: every train scene
+//! has a gearbox file that gives the same parameters and inputs bit for bit (so the same
+//! traces), the spec's example loads as written, and refusals name the file's elements.
+
+use spur_gear_train::gearbox::{params, start_values, Start};
+use spur_gear_train::variables::{Var, VarType};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A scene's `[start_values]`, typed as the table declares each variable.
+fn scene_values(path: &Path) -> Vec<(String, Start)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let scene: toml::Table = toml::from_str(&text).unwrap();
+    let table = scene["start_values"].as_table().expect("[start_values]");
+    table
+        .iter()
+        .map(|(name, x)| {
+            let v = Var::from_name(name).unwrap_or_else(|| panic!("{name}"));
+            let start = match (v.info().ty, x) {
+                (VarType::Real, toml::Value::Float(f)) => Start::Real(*f),
+                (VarType::Real, toml::Value::Integer(i)) => Start::Real(*i as f64),
+                (VarType::Integer, toml::Value::Integer(i)) => Start::Integer(*i as i32),
+                (VarType::Boolean, toml::Value::Boolean(b)) => Start::Boolean(*b),
+                (VarType::String, toml::Value::String(s)) => Start::String(s.clone()),
+                (ty, x) => panic!("{}: {name} = {x} for a {ty:?}", path.display()),
+            };
+            (name.clone(), start)
+        })
+        .collect()
+}
+
+fn gearbox_values(path: &Path) -> Result<Vec<(String, Start)>, String> {
+    let g = gearbox::load(path).map_err(|e| e.0)?;
+    start_values(&g)
+}
+
+/// Every scene of scenes/train has a gearbox file beside it (NAME.gearbox.toml) whose start
+/// values set the train's parameters and inputs exactly as the scene's do: the same model
+/// runs, so the traces are the scene's to the last bit.
+#[test]
+fn every_train_scene_is_a_gearbox_file() {
+    let dir = root().join("scenes/train");
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            let name = p.file_name().unwrap().to_str().unwrap();
+            name.ends_with(".toml") && !name.ends_with(".gearbox.toml")
+        })
+        .collect();
+    scenes.sort();
+    assert!(scenes.len() >= 11, "{scenes:?}");
+    for scene in &scenes {
+        let file = scene.with_extension("gearbox.toml");
+        let (p, i) = params(&scene_values(scene)).unwrap();
+        let given = gearbox_values(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+        let (q, j) = params(&given).unwrap();
+        assert!(
+            p == q,
+            "{}: the parameters differ from the scene's",
+            file.display()
+        );
+        assert!(
+            i == j,
+            "{}: the inputs differ from the scene's",
+            file.display()
+        );
+    }
+}
+
+fn spec_example() -> String {
+    std::fs::read_to_string(root().join("scenes/gearbox/nrel-stage1.toml")).unwrap()
+}
+
+/// scenes/gearbox/nrel-stage1.toml is the spec's example as written, and it loads: the
+/// planetary shorthand's names, the gears declared once, the senses' order.
+#[test]
+fn the_spec_example_loads_as_written() {
+    let spec = root().join("../shared/spec/gearbox-file.md");
+    let text = spec_example();
+    if let Ok(md) = std::fs::read_to_string(&spec) {
+        let block = md
+            .split("```toml\n")
+            .nth(1)
+            .unwrap()
+            .split("```")
+            .next()
+            .unwrap();
+        assert_eq!(
+            block, text,
+            "scenes/gearbox/nrel-stage1.toml is the spec's example"
+        );
+    }
+    let g = gearbox::parse(&text).unwrap();
+    let names = |v: Vec<&str>| v.join(" ");
+    assert_eq!(
+        names(g.bodies.iter().map(|b| b.name.as_str()).collect()),
+        "stage1.sun stage1.carrier stage1.planet1 stage1.planet2 stage1.planet3 hss generator"
+    );
+    assert_eq!(
+        names(g.meshes.iter().map(|m| m.name.as_str()).collect()),
+        "stage1.sun_planet1 stage1.sun_planet2 stage1.sun_planet3 stage1.planet1_ring \
+         stage1.planet2_ring stage1.planet3_ring wheel_hss"
+    );
+    assert_eq!(g.shafts[0].name, "hss_generator");
+    // The sun's body carries two gears: its own and the wheel.
+    let wheel = g.gears.iter().find(|x| x.name == "wheel").unwrap();
+    assert_eq!(wheel.support, gearbox::Support::Body(0));
+    assert_eq!(wheel.module, Some(0.014));
+    let ring = g.gears.iter().find(|x| x.name == "stage1.ring").unwrap();
+    assert!(ring.internal && ring.support == gearbox::Support::Housing);
+    assert_eq!(g.meshes[3].backlash, Some(5e-4), "[defaults]");
+    // The speed-driven generator is not in SpurGearTrain yet: refused, with its line.
+    let e = start_values(&g).unwrap_err();
+    assert!(
+        e.starts_with("body generator: drive = \"speed\"") && e.ends_with("(line 34)"),
+        "{e}"
+    );
+}
+
+/// Without the speed drive the example becomes SpurGearTrain's start values, the speeds by
+/// rigid rolling from the carrier's: Willis's sun speed w_c (1 + z_ring / z_sun), and the
+/// parallel stage's ratio 95/24 (planetary.md §6).
+#[test]
+fn start_speeds_follow_rigid_rolling() {
+    let text = spec_example().replace("drive = \"speed\"", "");
+    let v = start_values(&gearbox::parse(&text).unwrap()).unwrap();
+    let w = |i: usize| match v.iter().find(|(n, _)| *n == format!("body[{i}].w_start")) {
+        Some((_, Start::Real(x))) => *x,
+        other => panic!("{other:?}"),
+    };
+    let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * y.abs();
+    let sun = 1.2 * (1.0 + 56.0 / 19.0);
+    assert!(close(w(2), 1.2) && close(w(1), sun), "{} {}", w(1), w(2));
+    assert!(
+        close(w(6), sun * 95.0 / 24.0) && close(w(7), w(6)),
+        "{} {}",
+        w(6),
+        w(7)
+    );
+    // Planets relative to the carrier: z_sun (w_sun - w_c) = z_planet (w_p + w_c) in
+    // forward senses (the planet turns the other way).
+    for p in 3..=5 {
+        assert!(
+            close(19.0 * (w(1) - 1.2), 17.0 * (w(p) + 1.2)),
+            "planet {p}: {}",
+            w(p)
+        );
+    }
+    // A second w_start that contradicts rolling is refused, naming the mesh.
+    let wrong = text.replace("J = 20.0\n", "J = 20.0\nw_start = 20.0\n");
+    let e = start_values(&gearbox::parse(&wrong).unwrap()).unwrap_err();
+    assert!(
+        e.contains("hss.w_start = 20") && e.contains("contradict rigid rolling"),
+        "{e}"
+    );
+}
+
+fn refusal(text: &str) -> String {
+    match gearbox::parse(text) {
+        Err(e) => e.0,
+        Ok(g) => start_values(&g).expect_err("refused"),
+    }
+}
+
+/// Refusals name the file's elements and lines, never `mesh[4]`.
+#[test]
+fn refusals_name_the_files_elements() {
+    let text = spec_example().replace("drive = \"speed\"", "");
+    let cases = [
+        // An unknown key.
+        (
+            text.replace("J = 534.0", "J = 534.0\ninertia = 3.0"),
+            "body generator: unknown field `inertia`",
+            "inertia = 3.0",
+        ),
+        // A gear meshing with a gear of another module.
+        (
+            text.replace(
+                "gear = { z = 24, module = 0.014",
+                "gear = { z = 24, module = 0.016",
+            ),
+            "mesh wheel_hss: gear wheel (module 0.014 m",
+            "gears = [\"wheel\", \"hss\"]",
+        ),
+        // Two internal gears in one mesh.
+        (
+            text.replace("z = 95\n", "z = 95\ninternal = true\n")
+                .replace("z = 24, module", "z = 24, internal = true, module"),
+            "mesh wheel_hss: gears wheel and hss are both internal",
+            "gears = [\"wheel\", \"hss\"]",
+        ),
+        // A gear with too few teeth: the model's refusal in the file's names.
+        (text.replace("z = 95\n", "z = 2\n"), "wheel.z = 2", "z = 2"),
+    ];
+    for (file, start, key_line) in cases {
+        let at = file.lines().position(|l| l.contains(key_line)).unwrap() + 1;
+        let e = refusal(&file);
+        assert!(e.contains(&start), "{e}\n does not contain: {start}");
+        assert!(e.ends_with(&format!("(line {at})")), "{e}: line {at}");
+        assert!(!e.contains("mesh["), "{e}");
+    }
+}
+
+/// An orbit radius that does not fit the ring, and a ring shift with the sign of the sources
+/// that count a ring's teeth as negative.
+#[test]
+fn planetary_refusals_name_the_set() {
+    let text = spec_example().replace("drive = \"speed\"", "");
+    // 57 teeth: the sun-planet centre distance no longer equals the planet-ring one.
+    let e = refusal(&text.replace("ring = { z = 56", "ring = { z = 57"));
+    assert!(
+        e.starts_with("mesh stage1.planet1_ring") && e.contains("orbit radius"),
+        "{e}"
+    );
+    assert!(!e.contains("mesh[") && !e.contains("body["), "{e}");
+    let e = refusal(&text.replace("x = 0.501", "x = -0.501"));
+    assert!(e.contains("no operating pressure angle"), "{e}");
+    assert!(
+        e.contains("gear stage1.ring is internal with x = -0.501")
+            && e.contains("x = 0.501 may be meant"),
+        "{e}"
+    );
+    assert!(!e.contains("mesh["), "{e}");
+}
