@@ -201,13 +201,14 @@ impl<'a> Builder<'a> {
             matches!(c.next(), Some(ch) if ch.is_ascii_alphabetic() || ch == '_')
                 && c.all(|ch| ch.is_ascii_alphanumeric() || ch == '_')
         };
-        let line = line_of(self.text, span.start);
+        let key = format!("{kind}:{name}");
+        self.g.lines.element.insert(key, extent(self.text, span));
+        let line = self.g.lines.of(kind, name, "name").unwrap_or(0);
         if !name.split('.').all(ident) || name == "housing" {
             return Err(Refusal(format!(
-                "{kind} \"{name}\" (line {line}): a name is an identifier ([A-Za-z_][A-Za-z0-9_]*, parts joined by '.'), and not \"housing\""
+                "{kind} \"{name}\": a name is an identifier ([A-Za-z_][A-Za-z0-9_]*, parts joined by '.'), and not \"housing\" (line {line})"
             )));
         }
-        let key = format!("{kind}:{name}");
         let taken = match kind {
             "gear" => self.g.gears.iter().any(|g| g.name == name),
             _ => {
@@ -218,10 +219,9 @@ impl<'a> Builder<'a> {
         };
         if taken {
             return Err(Refusal(format!(
-                "{kind} {name} (line {line}): the name is already taken"
+                "{kind} {name}: the name is already taken (line {line})"
             )));
         }
-        self.g.lines.element.insert(key, extent(self.text, span));
         Ok(())
     }
 

@@ -338,8 +338,30 @@ fn start_speeds(g: &Gearbox, p: &Params) -> Result<Vec<f64>, String> {
     }
     let n = g.bodies.len();
     let known: Vec<Option<f64>> = g.bodies.iter().map(|b| b.w_start).collect();
-    let free: Vec<usize> = (0..n).filter(|&i| known[i].is_none()).collect();
     let mut w: Vec<f64> = known.iter().map(|x| x.unwrap_or(0.0)).collect();
+    // A row with one speed left unknown gives it (a tree, a set whose ring or sun is fixed):
+    // the ratio to the last bit, where a least-squares solve leaves rounding in every speed.
+    let mut set: Vec<bool> = known.iter().map(Option::is_some).collect();
+    if set.iter().any(|&s| s) {
+        while let Some((row, i)) = rows.iter().find_map(|(_, row)| {
+            let mut open = row.0.iter().filter(|&&(i, c)| !set[i] && c != 0.0);
+            match (open.next(), open.next()) {
+                (Some(&(i, _)), None) => Some((row, i)),
+                _ => None,
+            }
+        }) {
+            let c = coefficient(row, i);
+            let rest: f64 = row
+                .0
+                .iter()
+                .filter(|&&(j, _)| j != i)
+                .map(|&(j, c)| c * w[j])
+                .sum();
+            w[i] = -rest / c;
+            set[i] = true;
+        }
+    }
+    let free: Vec<usize> = (0..n).filter(|&i| !set[i]).collect();
     if !free.is_empty() && free.len() < n && !rows.is_empty() {
         // Rows over the free speeds = minus the rows over the known ones (least squares; the
         // minimum-norm solution leaves a part no known speed reaches at rest).
