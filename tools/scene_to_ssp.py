@@ -4,6 +4,7 @@ loads the scene into a co-simulation tool instead of typing its start values on 
     .venv/bin/python tools/scene_to_ssp.py two-stage                  # target/ssp/two-stage.ssp
     .venv/bin/python tools/scene_to_ssp.py scenes/train/internal.toml --out internal.ssp
     .venv/bin/python tools/scene_to_ssp.py two-stage --fmu path/to/SpurGearTrain.fmu
+    .venv/bin/python tools/scene_to_ssp.py scenes/train/planetary-simple.gearbox.toml  # a gearbox file
 
 The FMU defaults to target/fmu/SpurGearTrain.fmu (build it with
 `cargo run -q --release -p fmu-packaging --bin package-train`). The package holds:
@@ -43,7 +44,9 @@ package would hold only the torques' start values, so the tool refuses it.
 from __future__ import annotations
 
 import argparse
+import json
 import re
+import subprocess
 import sys
 import tomllib
 import zipfile
@@ -64,13 +67,38 @@ NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
 _ELEMENT = re.compile(r"^(body|shaft|mesh)\[(\d+)\]\.")
 
 
+def gearbox_start_values(path):
+    """SpurGearTrain's start values for a gearbox file (gearbox-file.md), from the Rust mapping
+    that the tests check against every scene (train-fmu/src/gearbox.rs); a refused file raises
+    ValueError with the refusal, which names the file's elements and lines."""
+    cmd = ["cargo", "run", "-q", "--release", "-p", "spur_gear_train", "--bin", "gearbox-start-values",
+           "--", str(Path(path).resolve()), "--json"]
+    r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise ValueError(r.stderr.strip() or f"{' '.join(cmd)} failed")
+    return json.loads(r.stdout)
+
+
 def load_scene(scene):
-    """A scene by name (scenes/train/<name>.toml) or by path; with "name" and "path" added."""
+    """A scene by name (scenes/train/<name>.toml) or by path; with "name" and "path" added. A
+    gearbox file (a top-level `name` and no [start_values]) is a scene too: its start values
+    are the file's, its run the scene's beside it (NAME.gearbox.toml beside NAME.toml) or the
+    FMU's default experiment (0.1 s, 1e-4 s)."""
     path = Path(scene)
     if path.suffix != ".toml":
         path = SCENES_DIR / f"{scene}.toml"
     with open(path, "rb") as f:
         sc = tomllib.load(f)
+    if "start_values" not in sc and "name" in sc:
+        beside = path.with_name(path.name.replace(".gearbox.toml", ".toml"))
+        run = {"stop_time": 0.1, "output_interval": 1e-4}
+        if beside != path and beside.is_file():
+            with open(beside, "rb") as f:
+                run.update({k: v for k, v in tomllib.load(f).items() if k in run or k == "input_file"})
+        gearbox = sc
+        sc = {**run, "description": gearbox.get("description", ""), "start_values": gearbox_start_values(path)}
+        sc["name"], sc["path"] = gearbox["name"], str(path)
+        return sc
     sc["name"], sc["path"] = path.stem, str(path)
     return sc
 
@@ -242,7 +270,7 @@ def fmpy_parameter_set(ssp):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("scene", help="a train scene's name (scenes/train/<name>.toml) or path")
+    ap.add_argument("scene", help="a train scene's name (scenes/train/<name>.toml) or path, or a gearbox file")
     ap.add_argument("--fmu", default=str(DEFAULT_FMU), help="the SpurGearTrain FMU to package")
     ap.add_argument("--out", help="where to write the .ssp (default target/ssp/<name>.ssp)")
     a = ap.parse_args(argv)

@@ -30,7 +30,8 @@ assembly check come from the reference's placement (tests/reference_model/train_
         -o out/train-run.png
 
 Quote --set arguments in the shell ('mesh[2].zA=33'): brackets are glob characters. A scene is a
-TOML file with a [start_values] table of FMI names, quoted there too ("mesh[2].zA" = 33).
+TOML file with a [start_values] table of FMI names, quoted there too ("mesh[2].zA" = 33), or a
+gearbox file (docs/gearbox-file.md): `--scene scenes/train/two-stage.gearbox.toml`.
 
 `run` plots a CSV written by `fmpy simulate` (first column `time`, columns named by FMI name):
 per mesh dte [um] and the flank forces, then the body speeds and the shaft torques. With the
@@ -1521,9 +1522,14 @@ def _flatten(d, prefix=""):
 
 def load_scene(path) -> dict:
     """The [start_values] of a scene TOML (structured names must be quoted keys there:
-    "mesh[2].zA" = 33)."""
+    "mesh[2].zA" = 33), or SpurGearTrain's start values for a gearbox file (a top-level `name`,
+    docs/gearbox-file.md), from the Rust mapping the tests check (tools/scene_to_ssp.py)."""
     with open(path, "rb") as f:
         scene = tomllib.load(f)
+    if "start_values" not in scene and "name" in scene:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from scene_to_ssp import gearbox_start_values
+        return gearbox_start_values(path)
     if "start_values" not in scene:
         raise ValueError(f"{path}: no [start_values] table")
     return _flatten(scene["start_values"])
