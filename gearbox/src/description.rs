@@ -177,6 +177,8 @@ pub struct Gearbox {
     pub meshes: Vec<Mesh>,
     pub shafts: Vec<Shaft>,
     pub solver: Solver,
+    /// Start in static balance (gearbox-file.md §3): true unless the file says otherwise.
+    pub static_start: bool,
     /// Where each element and key stands in the file, for messages.
     pub lines: Lines,
 }

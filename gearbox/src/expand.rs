@@ -655,6 +655,7 @@ pub fn expand(text: &str, f: &File) -> R<Gearbox> {
         g: Gearbox {
             name: f.name.clone(),
             description: f.description.clone().unwrap_or_default(),
+            static_start: f.static_start.unwrap_or(true),
             ..Gearbox::default()
         },
     };

@@ -110,6 +110,7 @@ keys! {
     File [] {
         pub name: String,
         pub description: Option<String>,
+        pub static_start: Option<bool>,
         #[serde(default)]
         pub defaults: Defaults,
         #[serde(default)]

@@ -73,3 +73,25 @@ def test_train_layout_draws_a_gearbox_file(tmp_path):
     train_layout.main(["layout", "--scene", str(ROOT / "scenes" / "train" / "planetary-simple.gearbox.toml"),
                        "-o", str(out)])
     assert out.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("name", ["two-stage", "planetary-simple"])
+def test_static_start_through_the_fmu(name, train_fmu_path):
+    """SpurGearTrain's static_start through FMPy: the scene without its hand-written running
+    start (every dte_start and twist_start left out) and static_start = true runs as the scene
+    does, within the scene's own comparison bounds ([compare.tolerance], 0.1 % of each range):
+    the static start finds the scene's start deflections to 1e-9 (train-fmu/tests/gearbox.rs)."""
+    import fmpy
+
+    scene = X.load_scene(name)
+    sv = scene["start_values"]
+    static = {k: v for k, v in sv.items() if not k.endswith((".dte_start", ".twist_start"))}
+    static["static_start"] = True
+    assert len(static) < len(sv) + 1, "the scene writes its running start out"
+    tol = scene["compare"]["tolerance"]
+    h, t = float(scene["output_interval"]), float(scene["stop_time"])
+    runs = [fmpy.simulate_fmu(str(train_fmu_path), stop_time=t, output_interval=h, start_values=v,
+                              output=list(tol)) for v in (sv, static)]
+    for q, bound in tol.items():
+        err = np.max(np.abs(runs[0][q] - runs[1][q]))
+        assert err <= bound, f"{name} {q}: {err:.3g} > {bound}"

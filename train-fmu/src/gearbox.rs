@@ -7,6 +7,7 @@ use crate::build;
 use crate::variables::{Inputs, Params, Var};
 use gear_model::model::geometry::Geometry;
 use gear_model::model::train::kinematics::{mesh_row, shaft_row, Row};
+use gear_model::model::train::statics::static_start;
 use gear_model::model::train::Train;
 use gearbox::{Damping, Drive, Gear, Gearbox, Mesh, Support};
 use nalgebra::{DMatrix, DVector};
@@ -37,8 +38,11 @@ pub fn start_values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
         p.set_real(build::var(&name), *w);
     }
     let spec = build::spec(&p).map_err(|e| in_file_names(g, &e))?;
-    let tau = build::loads(&p, &inputs, &Default::default()).tau;
-    Train::new(spec, tau, None).map_err(|e| in_file_names(g, &e.message))?;
+    let loads = build::loads(&p, &inputs, &Default::default());
+    Train::new(spec.clone(), loads.tau.clone(), None).map_err(|e| in_file_names(g, &e.message))?;
+    if p.static_start {
+        static_start(spec, &loads).map_err(|e| in_file_names(g, &e.message))?;
+    }
     Ok(v)
 }
 
@@ -151,6 +155,9 @@ fn values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
     }
     for (m, mesh) in g.meshes.iter().enumerate() {
         mesh_values(g, m, mesh, &mut put)?;
+    }
+    if g.static_start {
+        put("static_start".into(), Start::Boolean(true));
     }
     let s = &g.solver;
     if let Some(x) = s.solver {

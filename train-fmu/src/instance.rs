@@ -17,6 +17,7 @@ use gear_model::driver::Vector;
 use gear_model::driver::{Method, Stats};
 use gear_model::model::mesh::LawOutOfRange;
 use gear_model::model::statistics::{Statistics, Summary};
+use gear_model::model::train::statics::{static_start, StartDeflections};
 use gear_model::model::train::{self, State, Train, N_MARGINS, N_MASTER_STATES};
 use gear_model::variables as single;
 use rig_fmu::{Rig, Run};
@@ -150,15 +151,29 @@ fn saturate(n: u64) -> i32 {
     n.min(i32::MAX as u64) as i32
 }
 
-/// A train simulation from the snapshot's parameters and inputs.
+/// A train simulation from the snapshot's parameters and inputs. With `static_start`, the
+/// deflections are solved for the inputs now, unless a saved state brings those it started
+/// with (`solved`).
 fn fresh_simulation(
     s: &Snapshot,
     rel_tol: f64,
     vars: &build::LoadVars,
+    solved: Option<&StartDeflections>,
 ) -> Result<TrainSimulation, String> {
     build::validate(&s.params)?;
-    let spec = build::spec(&s.params)?;
+    let mut spec = build::spec(&s.params)?;
     let loads = build::loads(&s.params, &s.inputs, vars);
+    let deflections = match (s.params.static_start, solved) {
+        (false, _) => None,
+        (true, Some(d)) => {
+            d.apply(&mut spec).map_err(|e| e.message)?;
+            Some(d.clone())
+        }
+        (true, None) => {
+            spec = static_start(spec, &loads).map_err(|e| e.message)?;
+            Some(StartDeflections::of(&spec))
+        }
+    };
     let p = &s.params;
     let mut sim = TrainSimulation::new(
         spec,
@@ -169,6 +184,7 @@ fn fresh_simulation(
         rel_tol,
     )
     .map_err(|e| e.message)?;
+    sim.train.static_start = deflections;
     sim.set_loads(loads);
     if let Some(stop) = s.stop_time {
         sim.set_stop_time(stop);
@@ -263,7 +279,7 @@ impl Rig for TrainRig {
     const LOG_CATEGORIES: &'static [&'static str] = LOG_CATEGORIES;
     const STATE_MAGIC: [u8; 8] = *b"SGTSTATE";
     /// 2 since the driver saves the margins of the event functions in use, packed.
-    const STATE_FORMAT_VERSION: u32 = 2;
+    const STATE_FORMAT_VERSION: u32 = 3;
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
     const STATES: &'static [(Var, Var)] = STATES;
@@ -285,7 +301,7 @@ impl Rig for TrainRig {
     }
 
     fn build(s: &Snapshot, rel_tol: f64, cache: &Cache) -> Result<TrainSimulation, String> {
-        fresh_simulation(s, rel_tol, &cache.load_vars)
+        fresh_simulation(s, rel_tol, &cache.load_vars, None)
     }
 
     fn apply_loads(s: &mut Snapshot, cache: &Cache) {
@@ -417,8 +433,13 @@ impl Rig for TrainRig {
             ..s.clone()
         };
         if s.sim.is_some() || s.me.is_some() {
-            let fresh = fresh_simulation(&bare, rel_tol, &build::LoadVars::default())
-                .map_err(|e| format!("parameters in the state: {e}"))?;
+            let train = s.sim.as_ref().map(|x| &x.train);
+            let solved = train
+                .or(s.me.as_ref().map(|x| &x.rig))
+                .and_then(|t| t.static_start.clone());
+            let fresh =
+                fresh_simulation(&bare, rel_tol, &build::LoadVars::default(), solved.as_ref())
+                    .map_err(|e| format!("parameters in the state: {e}"))?;
             if let Some(sim) = s.sim.as_mut() {
                 restore(sim, &fresh)?;
             }

@@ -2,6 +2,9 @@
 //! has a gearbox file that gives the same parameters and inputs bit for bit (so the same
 //! traces), the spec's example loads as written, and refusals name the file's elements.
 
+use gear_model::driver::train_simulation::TrainSimulation;
+use gear_model::model::train::statics::static_start;
+use spur_gear_train::build;
 use spur_gear_train::gearbox::{params, start_values, Start};
 use spur_gear_train::variables::{Var, VarType};
 use std::path::{Path, PathBuf};
@@ -225,4 +228,214 @@ fn planetary_refusals_name_the_set() {
         "{e}"
     );
     assert!(!e.contains("mesh["), "{e}");
+}
+
+/// A scene's gearbox file with its written-out running start taken out: the static start
+/// finds it.
+fn static_scene(name: &str) -> String {
+    let text =
+        std::fs::read_to_string(root().join(format!("scenes/train/{name}.gearbox.toml"))).unwrap();
+    let kept: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            !["dte_start", "twist_start", "static_start"]
+                .iter()
+                .any(|k| l.starts_with(k))
+        })
+        .collect();
+    kept.join("\n")
+}
+
+/// The train a gearbox file describes, as the FMU builds it at initialization.
+fn simulation(text: &str) -> TrainSimulation {
+    let v = start_values(&gearbox::parse(text).unwrap()).unwrap();
+    let (p, inputs) = params(&v).unwrap();
+    let loads = build::loads(&p, &inputs, &Default::default());
+    let mut spec = build::spec(&p).unwrap();
+    if p.static_start {
+        spec = static_start(spec, &loads).unwrap();
+    }
+    TrainSimulation::new(spec, loads.tau.clone(), None, 1, 0.0, 1e-9).unwrap()
+}
+
+/// The static start solves the balance the independent reference solved for the scenes'
+/// running starts (tests/reference_model/train_ref.py, quasi_static_start: the rigid train's
+/// loads, then each mesh's deflection under its load), so the deflections agree to the
+/// reference's own solve (its general mode iterates to about 1e-10): 1e-9 of each. A wrong
+/// load share, flank or pair count would move them by 1e-3 and more. Left out: `internal`,
+/// whose friction the static start balances and the reference leaves out (without it they
+/// agree as well), `single`, whose start places a pair on the edge of its gate, and
+/// `planetary-two-stage`, refused below.
+#[test]
+fn static_start_is_the_reference_running_start() {
+    for name in [
+        "two-stage",
+        "idler",
+        "rattle",
+        "planetary-simple",
+        "planetary-pin-error",
+        "planetary-mounted",
+        "power-split",
+    ] {
+        let got = simulation(&static_scene(name));
+        let (p, _) = params(&scene_values(
+            &root().join(format!("scenes/train/{name}.toml")),
+        ))
+        .unwrap();
+        let want = build::spec(&p).unwrap();
+        let pairs = got
+            .train
+            .spec()
+            .meshes
+            .iter()
+            .zip(&want.meshes)
+            .map(|(a, b)| (a.params.dte_start, b.params.dte_start));
+        let twists = got
+            .train
+            .spec()
+            .shafts
+            .iter()
+            .zip(&want.shafts)
+            .map(|(a, b)| (a.twist_start, b.twist_start));
+        for (k, (a, b)) in pairs.chain(twists).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-9 * b.abs(),
+                "{name}, element {}: {a:e} against {b:e}",
+                k + 1
+            );
+        }
+    }
+    let text = static_scene("internal").replace("mu = ", "# mu = ");
+    let got = simulation(&text);
+    let (p, _) = params(&scene_values(&root().join("scenes/train/internal.toml"))).unwrap();
+    for (a, b) in got
+        .train
+        .spec()
+        .meshes
+        .iter()
+        .zip(&build::spec(&p).unwrap().meshes)
+    {
+        let (a, b) = (a.params.dte_start, b.params.dte_start);
+        assert!(
+            (a - b).abs() <= 1e-9 * b.abs(),
+            "internal without friction: {a:e} against {b:e}"
+        );
+    }
+    // A loop-closing mesh whose start the mounts fix: refused, in the file's names.
+    let e =
+        start_values(&gearbox::parse(&static_scene("planetary-two-stage")).unwrap()).unwrap_err();
+    assert!(
+        e.starts_with("static start: mesh stage2.sun_planet1") && e.contains("mounts"),
+        "{e}"
+    );
+}
+
+/// Until the first tooth-pair switch the mesh forces of a static start stay within 1 % of
+/// their value at t = 0. A start whose deflections are off by a fraction e rings at the
+/// train's mesh modes from the first instant, the force swinging by about e (1 - cos w t):
+/// the window holds at least 0.3 of the fastest mode's period, where that is 0.7 e, so an
+/// error of 1.5 % shows. Before a switch only the contact points' slow travel along the
+/// flanks changes the balance. The same trains started at zero deflection leave the band in
+/// the same window (the check can fail).
+#[test]
+fn static_start_holds_the_mesh_forces_until_a_pair_switches() {
+    let force = |sim: &TrainSimulation| -> Vec<f64> {
+        let y = sim.state();
+        (0..sim.train.meshes.len())
+            .map(|m| {
+                let r = sim.train.mesh_readout(m, &y).unwrap();
+                r.flank_force[0] - r.flank_force[1]
+            })
+            .collect()
+    };
+    for name in [
+        "two-stage",
+        "idler",
+        "rattle",
+        "internal",
+        "planetary-simple",
+        "planetary-pin-error",
+        "planetary-mounted",
+        "power-split",
+    ] {
+        let text = static_scene(name);
+        let mut sim = simulation(&text);
+        let f0 = force(&sim);
+        let scale = f0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let fastest = 2.0 * std::f64::consts::PI / sim.train.vibration_frequency(&sim.state());
+        // The first switch, from a run of its own.
+        let mut probe = sim.clone();
+        let mut first = f64::INFINITY;
+        probe
+            .advance(20.0 * fastest, &mut |t, r| {
+                if !r.smooth {
+                    first = first.min(t)
+                }
+            })
+            .unwrap();
+        let window = first.min(20.0 * fastest);
+        assert!(
+            window >= 0.3 * fastest,
+            "{name}: a switch after {window:e} s, the fastest mode's period {fastest:e} s"
+        );
+        let mut unbalanced = simulation(&format!("static_start = false\n{text}"));
+        let mut worst = [0.0f64; 2];
+        for k in 1..=100 {
+            let t = window * (k as f64 / 100.0) * (1.0 - 1e-9);
+            for (run, sim) in [&mut sim, &mut unbalanced].into_iter().enumerate() {
+                sim.advance(t, &mut |_, _| {}).unwrap();
+                for (f, g) in force(sim).iter().zip(&f0) {
+                    worst[run] = worst[run].max((f - g).abs() / scale);
+                }
+            }
+        }
+        eprintln!(
+            "{name}: window {window:e} s ({:.2} fastest periods), {worst:?}",
+            window / fastest
+        );
+        assert!(
+            worst[0] <= 0.01,
+            "{name}: the static start's forces move by {:.3} %",
+            100.0 * worst[0]
+        );
+        assert!(
+            worst[1] > 0.1,
+            "{name}: a start at zero deflection moves the forces by only {:.3} %",
+            100.0 * worst[1]
+        );
+    }
+}
+
+/// The [[planetary]] shorthand with the static start (scenes/gearbox/planetary-simple.toml) is
+/// the scene planetary-simple: the same train, its speeds by rigid rolling from the sun's, and
+/// the start deflections of the scene's hand-written running start (to 1e-9, as above).
+#[test]
+fn the_planetary_shorthand_is_the_scene() {
+    let text =
+        std::fs::read_to_string(root().join("scenes/gearbox/planetary-simple.toml")).unwrap();
+    let sim = simulation(&text);
+    let (p, _) = params(&scene_values(
+        &root().join("scenes/train/planetary-simple.toml"),
+    ))
+    .unwrap();
+    let want = build::spec(&p).unwrap();
+    let got = sim.train.spec();
+    assert_eq!(got.bodies.len(), want.bodies.len());
+    for (a, b) in got.bodies.iter().zip(&want.bodies) {
+        assert!(
+            (a.w_start - b.w_start).abs() <= 1e-12 * b.w_start.abs(),
+            "{} {}",
+            a.w_start,
+            b.w_start
+        );
+        assert_eq!((a.j, a.c, a.planet), (b.j, b.c, b.planet));
+    }
+    for (a, b) in got.meshes.iter().zip(&want.meshes) {
+        assert_eq!((a.a, a.b), (b.a, b.b));
+        let (x, y) = (a.params.dte_start, b.params.dte_start);
+        assert!((x - y).abs() <= 1e-9 * y.abs(), "{x:e} against {y:e}");
+        let mut q = a.params.clone();
+        q.dte_start = b.params.dte_start;
+        assert!(q == b.params, "the pair parameters");
+    }
 }

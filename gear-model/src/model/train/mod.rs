@@ -11,6 +11,7 @@
 
 pub mod kinematics;
 pub mod placement;
+pub mod statics;
 pub mod topology;
 
 use super::contact::{EventFn, N_EVENTS};
@@ -145,6 +146,9 @@ pub struct Train {
     pub e_start: f64,
     /// Each mesh's statistics (parameter `statistics`).
     pub stats: Option<Vec<Statistics>>,
+    /// The deflections a static start solved for (parameter `static_start`), kept for a saved
+    /// state.
+    pub static_start: Option<statics::StartDeflections>,
 }
 
 impl Default for TrainConfig {
@@ -309,6 +313,7 @@ impl Train {
             n_events: 0,
             e_start: 0.0,
             stats: statistics.map(|t| vec![Statistics::new(t); n_meshes]),
+            static_start: None,
         };
         // Every angle starts at 0: each coordinate at its offset; the rates from the bodies'
         // start speeds.

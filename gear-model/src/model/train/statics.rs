@@ -1,0 +1,304 @@
+//! The static start (gearbox-file.md §3): the start deflections of the meshes and twists of
+//! the shafts at which the start loads (torques, drags at the start speeds, friction) are in
+//! balance, so a run starts without a transient. Where the loads do not balance, the train
+//! accelerates as a rigid body and the balance is taken in that accelerating frame: every
+//! mesh's dte and every shaft's twist then has zero second derivative at t = 0.
+//!
+//! The unknowns are the coordinates' edges (the meshes that place a body, through their
+//! `dte_start`, and the shafts, through their `twist_start`); the meshes that close loops
+//! follow from them. The equations are the train's own right-hand side, so whatever the
+//! model carries (the pairs in contact, their positions, tooth structure, friction) is in the
+//! balance. Newton's method on them, with a Jacobian by differences: a handful of train
+//! builds per iteration, once, at initialization.
+
+use super::kinematics::Coord;
+use super::topology::{Edge, TrainSpec};
+use super::{coord_index, State, Train, TrainLoads};
+use crate::driver::Vector;
+use crate::model::ModelError;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+/// A start deflection of a loaded flank before Newton's first step \[m\]: the micrometre of a
+/// gear's static deflection (the scenes' are 0.5-3.3 um), only to start on the right side.
+const DELTA_GUESS: f64 = 1e-6;
+/// Converged when no unknown moves by more than this fraction of its size (or of a
+/// nanometre for one near 0): far below what the forces resolve.
+const STEP_TOL: f64 = 1e-10;
+const MAX_ITER: usize = 40;
+/// Balanced when every edge's acceleration is below this fraction of what its own deflection
+/// gives it: the forces then balance to far better than the contact laws' own accuracy.
+const BALANCE_TOL: f64 = 1e-10;
+/// Where rounding in the other edges' forces keeps a lightly loaded edge from that, the steps
+/// stand still with its residual at this fraction.
+const NOISE_TOL: f64 = 1e-6;
+
+/// The start deflections a static start found: every mesh's `dte_start` and every shaft's
+/// `twist_start` as the train was built with them. A saved FMU state keeps them, since
+/// solving again from a later state's inputs would give another start.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StartDeflections {
+    pub dte: Vec<f64>,
+    pub twist: Vec<f64>,
+}
+
+impl StartDeflections {
+    pub fn of(spec: &TrainSpec) -> StartDeflections {
+        StartDeflections {
+            dte: spec.meshes.iter().map(|m| m.params.dte_start).collect(),
+            twist: spec.shafts.iter().map(|s| s.twist_start).collect(),
+        }
+    }
+
+    /// Puts them into `spec`; refused when they do not fit it or are not finite.
+    pub fn apply(&self, spec: &mut TrainSpec) -> Result<(), ModelError> {
+        let fits = self.dte.len() == spec.meshes.len() && self.twist.len() == spec.shafts.len();
+        if !fits || !self.dte.iter().chain(&self.twist).all(|x| x.is_finite()) {
+            return Err(ModelError::new(
+                "the static start's deflections do not fit the train".to_string(),
+            ));
+        }
+        for (m, &x) in spec.meshes.iter_mut().zip(&self.dte) {
+            m.params.dte_start = x;
+        }
+        for (s, &x) in spec.shafts.iter_mut().zip(&self.twist) {
+            s.twist_start = x;
+        }
+        Ok(())
+    }
+}
+
+/// What sets one coordinate's start value.
+#[derive(Clone, Copy, Debug)]
+enum Unknown {
+    Mesh(usize),
+    Shaft(usize),
+}
+
+fn get(spec: &TrainSpec, u: Unknown) -> f64 {
+    match u {
+        Unknown::Mesh(m) => spec.meshes[m].params.dte_start,
+        Unknown::Shaft(j) => spec.shafts[j].twist_start,
+    }
+}
+
+fn set(spec: &mut TrainSpec, u: Unknown, x: f64) {
+    match u {
+        Unknown::Mesh(m) => spec.meshes[m].params.dte_start = x,
+        Unknown::Shaft(j) => spec.shafts[j].twist_start = x,
+    }
+}
+
+fn name(u: Unknown) -> String {
+    match u {
+        Unknown::Mesh(m) => format!("mesh[{}]", m + 1),
+        Unknown::Shaft(j) => format!("shaft[{}]", j + 1),
+    }
+}
+
+/// The unknowns' start values and the edges' accelerations there.
+struct Balance<'a> {
+    spec: TrainSpec,
+    loads: &'a TrainLoads,
+    unknowns: Vec<(usize, Unknown)>,
+}
+
+impl Balance<'_> {
+    fn with(&self, x: &[f64]) -> TrainSpec {
+        let mut spec = self.spec.clone();
+        for (&(_, u), &v) in self.unknowns.iter().zip(x) {
+            set(&mut spec, u, v);
+        }
+        spec
+    }
+
+    /// The second derivatives of the coordinates' edges at the start.
+    fn residual(&self, x: &[f64]) -> Result<DVector<f64>, ModelError> {
+        let (mut train, y) = Train::new(self.with(x), self.loads.tau.clone(), None)?;
+        train.set_loads(self.loads.clone(), &y);
+        let mut dy = State::zeros();
+        train
+            .rhs(&y, &mut dy)
+            .map_err(|e| ModelError::new(format!("static start: {e}")))?;
+        Ok(DVector::from_iterator(
+            self.unknowns.len(),
+            self.unknowns.iter().map(|&(k, _)| dy[coord_index(k) + 1]),
+        ))
+    }
+}
+
+/// `spec` with the start deflections and twists at which `loads` balance (see the module).
+/// Refused when a loop-closing mesh is a coordinate (its start is the assembly's, which no
+/// parameter sets), or when no balance is found (a load beyond what the teeth can carry).
+pub fn static_start(spec: TrainSpec, loads: &TrainLoads) -> Result<TrainSpec, ModelError> {
+    let (train, _) = Train::new(spec.clone(), loads.tau.clone(), None)?;
+    let coords = &train.cfg.coords;
+    let mut unknowns = Vec::new();
+    for (k, c) in coords.coords.iter().enumerate() {
+        let u = match c {
+            Coord::Body(_) => continue,
+            Coord::Edge(Edge::Mesh(m)) => Unknown::Mesh(*m),
+            Coord::Edge(Edge::Shaft(j)) => Unknown::Shaft(*j),
+        };
+        // A placing mesh starts at its dte_start, a shaft at its twist_start; a loop-closing
+        // mesh at what the assembly gives.
+        if coords.offset[k] != get(&spec, u) {
+            return Err(ModelError::new(format!(
+                "static start: {} closes a loop whose start deflection the gears' mounts fix, not its dte_start: set the mounts so that the loop assembles under load, or start without static_start",
+                name(u)
+            )));
+        }
+        unknowns.push((k, u));
+    }
+    if unknowns.is_empty() {
+        return Ok(spec);
+    }
+    let b = Balance {
+        spec,
+        loads,
+        unknowns,
+    };
+    // Which flank each mesh loads, first guessed from the edges' accelerations with every
+    // mesh in the middle of its backlash and every shaft untwisted; a mesh that the balance
+    // pins to the edge of its gap loads the other flank, and Newton starts again.
+    let mid: Vec<f64> = b
+        .unknowns
+        .iter()
+        .map(|&(_, u)| match u {
+            Unknown::Mesh(m) => -0.5 * b.spec.meshes[m].params.backlash,
+            Unknown::Shaft(_) => 0.0,
+        })
+        .collect();
+    let r0 = b.residual(&mid)?;
+    let mut side: Vec<f64> = b
+        .unknowns
+        .iter()
+        .zip(r0.iter())
+        .map(|(&(_, u), &r)| match u {
+            Unknown::Mesh(_) if r < 0.0 => -1.0,
+            Unknown::Mesh(_) => 1.0,
+            Unknown::Shaft(_) => 0.0,
+        })
+        .collect();
+    for _ in 0..=b.unknowns.len() {
+        match newton(&b, &mid, &side, &r0)? {
+            Ok(x) => return Ok(b.with(&x)),
+            Err(pinned) => pinned.iter().for_each(|&k| side[k] = -side[k]),
+        }
+    }
+    Err(ModelError::new(
+        "static start: no balance found: the meshes' flanks keep changing (a load near zero on a mesh with backlash?)".to_string(),
+    ))
+}
+
+/// Newton's method from a deflection of DELTA_GUESS on each mesh's `side` (+1 forward, -1
+/// backward; 0, a shaft, starts untwisted).
+/// Returns the balance, or the meshes it pinned to the edge of their gap.
+#[allow(clippy::type_complexity)]
+fn newton(
+    b: &Balance,
+    mid: &[f64],
+    side: &[f64],
+    r0: &DVector<f64>,
+) -> Result<Result<Vec<f64>, Vec<usize>>, ModelError> {
+    let n = mid.len();
+    // The flank's edge: 0 forward, -j_n backward.
+    let edge = |k: usize| if side[k] > 0.0 { 0.0 } else { 2.0 * mid[k] };
+    let mut x: Vec<f64> = (0..n)
+        .map(|k| {
+            if side[k] == 0.0 {
+                0.0
+            } else {
+                edge(k) + side[k] * DELTA_GUESS
+            }
+        })
+        .collect();
+    // Each mesh stays on its flank, where its force law is smooth and monotone (the gap has
+    // no stiffness): a step past the edge goes a tenth of the way there instead.
+    let keep = |k: usize, x: f64, v: f64| {
+        if side[k] != 0.0 && side[k] * (v - edge(k)) <= 0.0 {
+            edge(k) + 0.1 * (x - edge(k))
+        } else {
+            v
+        }
+    };
+    let mut r = b.residual(&x)?;
+    // Each edge's residual on its own scale: its size unloaded or at the first guess (an
+    // edge that the external loads alone do not accelerate has 0 unloaded).
+    let top = r0
+        .iter()
+        .chain(r.iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let scale: Vec<f64> = (0..n)
+        .map(|k| {
+            r0[k]
+                .abs()
+                .max(r[k].abs())
+                .max(1e-12 * top)
+                .max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    for _ in 0..MAX_ITER {
+        let mut jac = DMatrix::zeros(n, n);
+        for k in 0..n {
+            // Away from the flank's edge, into the contact.
+            let h = 1e-6 * (x[k] - edge(k)).abs().max(1e-9);
+            let mut xh = x.clone();
+            xh[k] += if side[k] < 0.0 { -h } else { h };
+            let rh = b.residual(&xh)?;
+            jac.set_column(k, &((rh - &r) / (xh[k] - x[k])));
+        }
+        let step = jac.clone().lu().solve(&(-&r)).ok_or_else(|| {
+            ModelError::new("static start: the balance is singular (a body that nothing holds against its load)".to_string())
+        })?;
+        // The full step: each law is monotone and convex on its flank (stiffer as it is
+        // pressed), so a step from too light a deflection overshoots once and the steps
+        // from beyond converge from there; a halved step would crawl.
+        // Halved only where it would press a contact law beyond its range.
+        let mut frac = 1.0;
+        let (xn, rn) = loop {
+            let xn: Vec<f64> = (0..n)
+                .map(|k| keep(k, x[k], x[k] + frac * step[k]))
+                .collect();
+            match b.residual(&xn) {
+                Ok(rn) if rn.iter().all(|v| v.is_finite()) => break (xn, rn),
+                _ if frac > 1e-6 => frac *= 0.5,
+                Ok(_) => {
+                    return Err(ModelError::new(
+                        "static start: a residual is not finite".into(),
+                    ))
+                }
+                Err(e) => return Err(e),
+            }
+        };
+        let still =
+            (0..n).all(|k| (xn[k] - x[k]).abs() <= STEP_TOL * (x[k] - edge(k)).abs().max(1e-9));
+        x = xn;
+        r = rn;
+        // Against the acceleration its own deflection gives the edge (the elastic term), or
+        // once the steps stand still at rounding, also against its size unloaded.
+        let own = |k: usize| (jac[(k, k)] * (x[k] - edge(k))).abs();
+        if (0..n).all(|k| r[k].abs() <= BALANCE_TOL * own(k))
+            || still && (0..n).all(|k| r[k].abs() <= NOISE_TOL * own(k).max(scale[k]))
+        {
+            return Ok(Ok(x));
+        }
+        if still {
+            // Pinned: a mesh at the edge of its flank that the balance pushes further.
+            let pinned: Vec<usize> = (0..n)
+                .filter(|&k| side[k] != 0.0 && (x[k] - edge(k)).abs() <= 1e-3 * DELTA_GUESS)
+                .collect();
+            if pinned.is_empty() {
+                break;
+            }
+            return Ok(Err(pinned));
+        }
+    }
+    let worst = (0..n)
+        .max_by(|&i, &j| (r[i] / scale[i]).abs().total_cmp(&(r[j] / scale[j]).abs()))
+        .map(|k| name(b.unknowns[k].1))
+        .unwrap_or_default();
+    Err(ModelError::new(format!(
+        "static start: no balance found ({worst} least balanced): a load beyond what the teeth can carry, or a train that cannot hold still"
+    )))
+}
