@@ -347,17 +347,8 @@ fn instances_on_threads_agree_bit_for_bit() {
     }
 }
 
-/// An FMU state serialized, deserialized into another instance and set there continues exactly
-/// as the original.
-#[test]
-fn fmu_states_round_trip_through_their_bytes() {
-    let (a, b) = (Fmu::new(), Fmu::new());
-    assert_eq!(a.init(1.0), Status::Ok);
-    assert_eq!(b.init(1.0), Status::Ok);
-    let h = 1e-4;
-    for k in 0..50 {
-        assert_eq!(a.step(k as f64 * h, h), Status::Ok);
-    }
+/// Moves `a`'s FMU state into `b` through its bytes; returns the bytes.
+fn transfer_state(a: &Fmu, b: &Fmu) -> Vec<c_char> {
     unsafe {
         let mut s: *mut c_void = std::ptr::null_mut();
         assert_eq!(fmi2GetFMUstate(a.c, &mut s), Status::Ok);
@@ -372,24 +363,63 @@ fn fmu_states_round_trip_through_their_bytes() {
         let st = fmi2DeSerializeFMUstate(b.c, bytes.as_ptr(), size, &mut t);
         assert_eq!(st, Status::Ok, "{:?}", b.errors());
         assert_eq!(fmi2SetFMUstate(b.c, t), Status::Ok);
-        // A corrupted blob is refused (by a third instance: the failure is fmi2Error).
-        bytes[size / 2] ^= 0x55;
-        let c = Fmu::new();
-        let mut u: *mut c_void = std::ptr::null_mut();
-        assert_ne!(
-            fmi2DeSerializeFMUstate(c.c, bytes.as_ptr(), size, &mut u),
-            Status::Ok
-        );
         fmi2FreeFMUstate(a.c, &mut s);
         fmi2FreeFMUstate(b.c, &mut t);
+        bytes
     }
-    for k in 50..150 {
+}
+
+/// `a` and `b` step on together from step `from` to `to`, bit for bit alike.
+fn in_lockstep(a: &Fmu, b: &Fmu, from: usize, to: usize, h: f64) {
+    for k in from..to {
         assert_eq!(a.step(k as f64 * h, h), Status::Ok, "{:?}", a.errors());
         assert_eq!(b.step(k as f64 * h, h), Status::Ok, "{:?}", b.errors());
         for n in ["mesh[1].dte", "mesh[2].F_fwd", "body[3].w", "E_el"] {
             assert_eq!(a.real(n).to_bits(), b.real(n).to_bits(), "{n} at step {k}");
         }
     }
+}
+
+/// An FMU state serialized, deserialized into another instance and set there continues exactly
+/// as the original.
+#[test]
+fn fmu_states_round_trip_through_their_bytes() {
+    let (a, b) = (Fmu::new(), Fmu::new());
+    assert_eq!(a.init(1.0), Status::Ok);
+    assert_eq!(b.init(1.0), Status::Ok);
+    let h = 1e-4;
+    for k in 0..50 {
+        assert_eq!(a.step(k as f64 * h, h), Status::Ok);
+    }
+    let mut bytes = transfer_state(&a, &b);
+    // A corrupted blob is refused (by a third instance: the failure is fmi2Error).
+    let size = bytes.len();
+    bytes[size / 2] ^= 0x55;
+    let c = Fmu::new();
+    let mut u: *mut c_void = std::ptr::null_mut();
+    let st = unsafe { fmi2DeSerializeFMUstate(c.c, bytes.as_ptr(), size, &mut u) };
+    assert_ne!(st, Status::Ok);
+    in_lockstep(&a, &b, 50, 150, h);
+}
+
+/// A static start's state keeps the deflections it started from: set in an instance that
+/// started under another drive torque, it continues exactly as the original (solving the
+/// balance again from the state's inputs would start elsewhere).
+#[test]
+fn a_static_start_survives_its_fmu_state() {
+    let (a, b) = (Fmu::new(), Fmu::new());
+    for (fmu, tau) in [(&a, 100.0), (&b, 160.0)] {
+        assert_eq!(fmu.set_bool("static_start", true), Status::Ok);
+        assert_eq!(fmu.set_real("body[1].tau", tau), Status::Ok);
+        assert_eq!(fmu.init(1.0), Status::Ok, "{:?}", fmu.errors());
+    }
+    let h = 1e-4;
+    for k in 0..50 {
+        assert_eq!(a.step(k as f64 * h, h), Status::Ok);
+    }
+    assert_eq!(a.set_real("body[1].tau", 130.0), Status::Ok);
+    transfer_state(&a, &b);
+    in_lockstep(&a, &b, 50, 150, h);
 }
 
 /// One call of a random sequence.
