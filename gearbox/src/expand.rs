@@ -468,6 +468,25 @@ impl<'a> Builder<'a> {
         Ok(())
     }
 
+    /// The two names a mesh's `gears` or a shaft's `bodies` must give.
+    fn two(
+        &self,
+        kind: &str,
+        k: usize,
+        span: &Range<usize>,
+        names: Option<&[String]>,
+        what: &str,
+    ) -> R<[String; 2]> {
+        match names {
+            Some([a, b]) => Ok([a.clone(), b.clone()]),
+            _ => Err(Refusal(format!(
+                "[[{kind}]] number {} (line {}): {what}",
+                k + 1,
+                line_of(self.text, span.start)
+            ))),
+        }
+    }
+
     fn gear_index(&self, mesh: &str, gear: &str) -> R<usize> {
         self.g
             .gears
@@ -478,16 +497,13 @@ impl<'a> Builder<'a> {
 
     fn add_mesh(&mut self, k: usize, e: &Spanned<MeshEntry>) -> R<()> {
         let en = e.get_ref();
-        let gears = match en.gears.as_deref() {
-            Some([a, b]) => [a.clone(), b.clone()],
-            _ => {
-                return Err(Refusal(format!(
-                    "[[mesh]] number {} (line {}): gears = [\"A\", \"B\"] names its two gears",
-                    k + 1,
-                    line_of(self.text, e.span().start)
-                )))
-            }
-        };
+        let gears = self.two(
+            "mesh",
+            k,
+            &e.span(),
+            en.gears.as_deref(),
+            "gears = [\"A\", \"B\"] names its two gears",
+        )?;
         let name = en
             .name
             .clone()
@@ -602,16 +618,13 @@ impl<'a> Builder<'a> {
 
     fn add_shaft(&mut self, k: usize, e: &Spanned<ShaftEntry>) -> R<()> {
         let en = e.get_ref();
-        let ends = match en.bodies.as_deref() {
-            Some([a, b]) => [a.clone(), b.clone()],
-            _ => {
-                return Err(Refusal(format!(
-                    "[[shaft]] number {} (line {}): bodies = [\"a\", \"b\"] names its two ends (a body, or \"housing\")",
-                    k + 1,
-                    line_of(self.text, e.span().start)
-                )))
-            }
-        };
+        let ends = self.two(
+            "shaft",
+            k,
+            &e.span(),
+            en.bodies.as_deref(),
+            "bodies = [\"a\", \"b\"] names its two ends (a body, or \"housing\")",
+        )?;
         let name = en
             .name
             .clone()

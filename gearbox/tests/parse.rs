@@ -217,6 +217,11 @@ fn a_missing_name_or_key_points_at_the_header() {
         refusal(&text),
         format!("[[body]] number 2 (line {header}): name is required")
     );
+    // A mesh that does not name two gears.
+    let text = PAIR.replace("[\"pinion\", \"wheel\"]", "[\"pinion\"]");
+    let header = line(&text, "[[mesh]]");
+    let e = refusal(&text);
+    assert_eq!(e, format!("[[mesh]] number 1 (line {header}): gears = [\"A\", \"B\"] names its two gears"));
     // A key left out: the element's header.
     let text = PAIR.replace("J = 0.5\n", "");
     let header = line(&text, "name = \"wheel\"") - 1;
