@@ -4,7 +4,7 @@ loads the scene into a co-simulation tool instead of typing its start values on 
     .venv/bin/python tools/scene_to_ssp.py two-stage                  # target/ssp/two-stage.ssp
     .venv/bin/python tools/scene_to_ssp.py scenes/train/internal.toml --out internal.ssp
     .venv/bin/python tools/scene_to_ssp.py two-stage --fmu path/to/SpurGearTrain.fmu
-    .venv/bin/python tools/scene_to_ssp.py scenes/train/planetary-simple.gearbox.toml  # a gearbox file
+    .venv/bin/python tools/scene_to_ssp.py scenes/train/gearbox/planetary-simple.toml  # a gearbox file
 
 The FMU defaults to target/fmu/SpurGearTrain.fmu (build it with
 `cargo run -q --release -p fmu-packaging --bin package-train`). The package holds:
@@ -82,17 +82,17 @@ def gearbox_start_values(path):
 def load_scene(scene):
     """A scene by name (scenes/train/<name>.toml) or by path; with "name" and "path" added. A
     gearbox file (a top-level `name` and no [start_values]) is a scene too: its start values
-    are the file's, its run the scene's beside it (NAME.gearbox.toml beside NAME.toml) or the
-    FMU's default experiment (0.1 s, 1e-4 s)."""
+    are the file's, its run the scene's it stands for (scenes/train/gearbox/NAME.toml is
+    scenes/train/NAME.toml) or the FMU's default experiment (0.1 s, 1e-4 s)."""
     path = Path(scene)
     if path.suffix != ".toml":
         path = SCENES_DIR / f"{scene}.toml"
     with open(path, "rb") as f:
         sc = tomllib.load(f)
     if "start_values" not in sc and "name" in sc:
-        beside = path.with_name(path.name.replace(".gearbox.toml", ".toml"))
+        beside = path.parent.parent / path.name
         run = {"stop_time": 0.1, "output_interval": 1e-4}
-        if beside != path and beside.is_file():
+        if path.parent.name == "gearbox" and beside.is_file():
             with open(beside, "rb") as f:
                 run.update({k: v for k, v in tomllib.load(f).items() if k in run or k == "input_file"})
         gearbox = sc

@@ -31,7 +31,7 @@ assembly check come from the reference's placement (tests/reference_model/train_
 
 Quote --set arguments in the shell ('mesh[2].zA=33'): brackets are glob characters. A scene is a
 TOML file with a [start_values] table of FMI names, quoted there too ("mesh[2].zA" = 33), or a
-gearbox file (docs/gearbox-file.md): `--scene scenes/train/two-stage.gearbox.toml`.
+gearbox file (docs/gearbox-file.md): `--scene scenes/train/gearbox/two-stage.toml`.
 
 `run` plots a CSV written by `fmpy simulate` (first column `time`, columns named by FMI name):
 per mesh dte [um] and the flank forces, then the body speeds and the shaft torques. With the

@@ -43,7 +43,7 @@ def test_a_gearbox_file_packages_and_runs_as_its_scene(name, train_fmu_path, tmp
     from fmpy.ssp.simulation import simulate_ssp
 
     scene = X.load_scene(name)
-    gearbox = X.load_scene(str(ROOT / "scenes" / "train" / f"{name}.gearbox.toml"))
+    gearbox = X.load_scene(str(ROOT / "scenes" / "train" / "gearbox" / f"{name}.toml"))
     assert gearbox["stop_time"] == scene["stop_time"] and gearbox["output_interval"] == scene["output_interval"]
     a = X.scene_to_ssp(scene, tmp_path / "scene.ssp", train_fmu_path)
     b = X.scene_to_ssp(gearbox, tmp_path / "gearbox.ssp", train_fmu_path)
@@ -60,7 +60,7 @@ def test_a_gearbox_file_packages_and_runs_as_its_scene(name, train_fmu_path, tmp
 
 def test_a_refused_gearbox_file_says_why(tmp_path):
     bad = tmp_path / "bad.toml"
-    text = (ROOT / "scenes" / "train" / "two-stage.gearbox.toml").read_text()
+    text = (ROOT / "scenes" / "train" / "gearbox" / "two-stage.toml").read_text()
     bad.write_text(text.replace("J = 0.004", "J = 0.004\nmass = 2.0"))
     with pytest.raises(ValueError, match=r"body wheel1: unknown field `mass`.*\(line \d+\)"):
         X.load_scene(str(bad))
@@ -70,7 +70,7 @@ def test_train_layout_draws_a_gearbox_file(tmp_path):
     import train_layout
 
     out = tmp_path / "layout.png"
-    train_layout.main(["layout", "--scene", str(ROOT / "scenes" / "train" / "planetary-simple.gearbox.toml"),
+    train_layout.main(["layout", "--scene", str(ROOT / "scenes" / "train" / "gearbox" / "planetary-simple.toml"),
                        "-o", str(out)])
     assert out.stat().st_size > 10_000
 

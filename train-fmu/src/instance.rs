@@ -278,7 +278,8 @@ impl Rig for TrainRig {
     const MODEL_NAME: &'static str = MODEL_IDENTIFIER;
     const LOG_CATEGORIES: &'static [&'static str] = LOG_CATEGORIES;
     const STATE_MAGIC: [u8; 8] = *b"SGTSTATE";
-    /// 2 since the driver saves the margins of the event functions in use, packed.
+    /// 2 since the driver saves the margins of the event functions in use, packed; 3 since
+    /// the train keeps the deflections of its static start.
     const STATE_FORMAT_VERSION: u32 = 3;
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;

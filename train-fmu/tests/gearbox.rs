@@ -40,7 +40,7 @@ fn gearbox_values(path: &Path) -> Result<Vec<(String, Start)>, String> {
     start_values(&g)
 }
 
-/// Every scene of scenes/train has a gearbox file beside it (NAME.gearbox.toml) whose start
+/// Every scene of scenes/train has a gearbox file beside it (gearbox/NAME.toml) whose start
 /// values set the train's parameters and inputs exactly as the scene's do: the same model
 /// runs, so the traces are the scene's to the last bit.
 #[test]
@@ -51,13 +51,13 @@ fn every_train_scene_is_a_gearbox_file() {
         .map(|e| e.unwrap().path())
         .filter(|p| {
             let name = p.file_name().unwrap().to_str().unwrap();
-            name.ends_with(".toml") && !name.ends_with(".gearbox.toml")
+            name.ends_with(".toml")
         })
         .collect();
     scenes.sort();
     assert!(scenes.len() >= 11, "{scenes:?}");
     for scene in &scenes {
-        let file = scene.with_extension("gearbox.toml");
+        let file = dir.join("gearbox").join(scene.file_name().unwrap());
         let (p, i) = params(&scene_values(scene)).unwrap();
         let given = gearbox_values(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
         let (q, j) = params(&given).unwrap();
@@ -234,7 +234,7 @@ fn planetary_refusals_name_the_set() {
 /// finds it.
 fn static_scene(name: &str) -> String {
     let text =
-        std::fs::read_to_string(root().join(format!("scenes/train/{name}.gearbox.toml"))).unwrap();
+        std::fs::read_to_string(root().join(format!("scenes/train/gearbox/{name}.toml"))).unwrap();
     let kept: Vec<&str> = text
         .lines()
         .filter(|l| {
