@@ -589,13 +589,24 @@ impl<'a> Builder<'a> {
         }
         if mesh.paper.is_none() {
             for g in [a, b] {
-                if g.module.is_none() {
-                    return Err(self.refuse(
-                        "gear",
-                        &g.name,
-                        "module",
-                        "module is required (here or in [defaults])",
-                    ));
+                match g.module {
+                    None => {
+                        return Err(self.refuse(
+                            "gear",
+                            &g.name,
+                            "module",
+                            "module is required (here or in [defaults])",
+                        ))
+                    }
+                    Some(m) if !(m > 0.0 && m.is_finite()) => {
+                        return Err(self.refuse(
+                            "gear",
+                            &g.name,
+                            "module",
+                            &format!("module = {m}: must be a positive length [m]"),
+                        ))
+                    }
+                    Some(_) => {}
                 }
             }
             let alpha = |g: &Gear| g.pressure_angle.unwrap_or(PRESSURE_ANGLE_DEFAULT);

@@ -198,6 +198,11 @@ fn refusals_name_the_element_the_key_and_the_line() {
             "gear pinion: module is required",
             "gear = { z = 20",
         ),
+        (
+            PAIR.replace("gear = { z = 40 }", "gear = { z = 40, module = nan }"),
+            "gear wheel: module = NaN: must be a positive length",
+            "module = nan",
+        ),
     ];
     for (text, start, at) in cases {
         let e = refusal(&text);
@@ -221,7 +226,10 @@ fn a_missing_name_or_key_points_at_the_header() {
     let text = PAIR.replace("[\"pinion\", \"wheel\"]", "[\"pinion\"]");
     let header = line(&text, "[[mesh]]");
     let e = refusal(&text);
-    assert_eq!(e, format!("[[mesh]] number 1 (line {header}): gears = [\"A\", \"B\"] names its two gears"));
+    assert_eq!(
+        e,
+        format!("[[mesh]] number 1 (line {header}): gears = [\"A\", \"B\"] names its two gears")
+    );
     // A key left out: the element's header.
     let text = PAIR.replace("J = 0.5\n", "");
     let header = line(&text, "name = \"wheel\"") - 1;

@@ -325,6 +325,9 @@ pub fn params(v: &[(String, Start)]) -> Result<(Params, Inputs), String> {
         assert!(set, "{name} is a start value of this type");
     }
     build::validate(&p)?;
+    if let Some((name, x)) = inputs.first_non_finite() {
+        return Err(format!("input {name} = {x}: must be finite"));
+    }
     Ok((p, inputs))
 }
 

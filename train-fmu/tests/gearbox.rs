@@ -4,6 +4,7 @@
 
 use gear_model::driver::train_simulation::TrainSimulation;
 use gear_model::model::train::statics::static_start;
+use proptest::prelude::*;
 use spur_gear_train::build;
 use spur_gear_train::gearbox::{params, start_values, Start};
 use spur_gear_train::variables::{Var, VarType};
@@ -437,5 +438,103 @@ fn the_planetary_shorthand_is_the_scene() {
         let mut q = a.params.clone();
         q.dte_start = b.params.dte_start;
         assert!(q == b.params, "the pair parameters");
+    }
+}
+
+/// One damage to a gearbox file.
+#[derive(Clone, Debug)]
+enum Damage {
+    /// Leave line k out.
+    Drop(usize),
+    /// Write line k twice.
+    Twice(usize),
+    /// Put x in place of the first number on line k.
+    Number(usize, f64),
+    /// Put this text in place of line k.
+    Line(usize, &'static str),
+}
+
+fn damage() -> impl Strategy<Value = Damage> {
+    let number = prop_oneof![
+        Just(0.0),
+        Just(-1.0),
+        Just(2.0),
+        Just(1e300),
+        Just(f64::NAN),
+        Just(f64::INFINITY),
+        -1e3..1e3f64,
+    ];
+    let line = prop_oneof![
+        Just("[[body]]"),
+        Just("[[mesh]]"),
+        Just("gears = [\"wheel\", \"wheel\"]"),
+        Just("carrier = \"hss\""),
+        Just("planets = 0"),
+        Just("x = 0.501"),
+        Just("z = 3"),
+        Just("name = \"stage1\""),
+        Just("bodies = [\"housing\", \"housing\"]"),
+        Just("static_start = false"),
+        Just("= 1"),
+    ];
+    prop_oneof![
+        (0..60usize).prop_map(Damage::Drop),
+        (0..60usize).prop_map(Damage::Twice),
+        (0..60usize, number).prop_map(|(k, x)| Damage::Number(k, x)),
+        (0..60usize, line).prop_map(|(k, l)| Damage::Line(k, l)),
+    ]
+}
+
+/// The first number of a line replaced (TOML's own spelling of the special values).
+fn with_number(line: &str, x: f64) -> String {
+    let text = if x.is_nan() {
+        "nan".into()
+    } else if x.is_infinite() {
+        "inf".into()
+    } else {
+        format!("{x:?}")
+    };
+    let start = line.find(|c: char| c.is_ascii_digit());
+    match start {
+        Some(a) => {
+            let end = line[a..]
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '.' || c == '-' || c == '+'))
+                .map_or(line.len(), |e| a + e);
+            format!("{}{text}{}", &line[..a], &line[end..])
+        }
+        None => line.to_owned(),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    /// Whatever damage a gearbox file takes, reading it and making SpurGearTrain's start values
+    /// (the train built, the static start solved) ends in values or in a refusal that says
+    /// something: never a panic, never a value that is not finite.
+    #[test]
+    fn a_damaged_gearbox_file_is_refused_or_read(damages in prop::collection::vec(damage(), 1..4)) {
+        let base = spec_example().replace("drive = \"speed\"", "");
+        let mut lines: Vec<String> = base.lines().map(str::to_owned).collect();
+        for d in &damages {
+            let n = lines.len().max(1);
+            match *d {
+                Damage::Drop(k) => { if !lines.is_empty() { lines.remove(k % n); } }
+                Damage::Twice(k) => { let l = lines[k % n].clone(); lines.insert(k % n, l); }
+                Damage::Number(k, x) => { lines[k % n] = with_number(&lines[k % n], x); }
+                Damage::Line(k, l) => { lines[k % n] = l.to_owned(); }
+            }
+        }
+        let text = lines.join("\n");
+        match gearbox::parse(&text).map_err(|e| e.0).and_then(|g| start_values(&g)) {
+            Ok(v) => {
+                for (name, x) in v {
+                    if let Start::Real(x) = x {
+                        prop_assert!(x.is_finite(), "{name} = {x}");
+                    }
+                }
+            }
+            Err(e) => prop_assert!(e.len() > 10, "{e:?}"),
+        }
     }
 }
