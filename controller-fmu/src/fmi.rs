@@ -234,16 +234,22 @@ mod tests {
         let bytes = fmi2_slave::fmu_state::encode(&saved);
         assert_eq!(&bytes[..8], b"SPCSTATE");
         assert_eq!(
-            fmi2_slave::fmu_state::decode::<SpeedController>(&bytes).unwrap(),
+            fmi2_slave::fmu_state::decode::<SpeedController>(&bytes, &SpeedController::fresh())
+                .unwrap(),
             saved
         );
         let mut flipped = bytes.clone();
         let k = bytes.len() - 20;
         flipped[k] ^= 1;
-        let e = fmi2_slave::fmu_state::decode::<SpeedController>(&flipped).unwrap_err();
+        let e =
+            fmi2_slave::fmu_state::decode::<SpeedController>(&flipped, &SpeedController::fresh())
+                .unwrap_err();
         assert!(e.contains("checksum"), "{e}");
-        let e = fmi2_slave::fmu_state::decode::<SpeedController>(&bytes[..bytes.len() - 1])
-            .unwrap_err();
+        let e = fmi2_slave::fmu_state::decode::<SpeedController>(
+            &bytes[..bytes.len() - 1],
+            &SpeedController::fresh(),
+        )
+        .unwrap_err();
         assert!(e.contains("length"), "{e}");
     }
 
@@ -255,7 +261,8 @@ mod tests {
             state: FmiState::StepComplete,
             slave: s,
         });
-        let e = fmi2_slave::fmu_state::decode::<SpeedController>(&bytes).unwrap_err();
+        let e = fmi2_slave::fmu_state::decode::<SpeedController>(&bytes, &SpeedController::fresh())
+            .unwrap_err();
         assert!(e.contains("kp = NaN"), "{e}");
     }
 }

@@ -98,7 +98,7 @@ mod tests {
         let bytes = fmi2_slave::fmu_state::encode(&saved);
         assert_eq!(&bytes[..8], b"ENGSTATE");
         assert_eq!(
-            fmi2_slave::fmu_state::decode::<EngineTorque>(&bytes).unwrap(),
+            fmi2_slave::fmu_state::decode::<EngineTorque>(&bytes, &EngineTorque::fresh()).unwrap(),
             saved
         );
         s.law.params.order = f64::INFINITY;
@@ -106,7 +106,8 @@ mod tests {
             state: FmiState::StepComplete,
             slave: s,
         });
-        let e = fmi2_slave::fmu_state::decode::<EngineTorque>(&bytes).unwrap_err();
+        let e = fmi2_slave::fmu_state::decode::<EngineTorque>(&bytes, &EngineTorque::fresh())
+            .unwrap_err();
         assert!(e.contains("order"), "{e}");
     }
 }

@@ -118,12 +118,14 @@ macro_rules! export_fmi2 {
             instance_name: *const ::std::os::raw::c_char,
             fmu_type: $crate::Type,
             guid: *const ::std::os::raw::c_char,
-            _resource_location: *const ::std::os::raw::c_char,
+            resource_location: *const ::std::os::raw::c_char,
             functions: *const $crate::CallbackFunctions,
             _visible: $crate::Boolean,
             logging_on: $crate::Boolean,
         ) -> $crate::Component {
-            $crate::ffi::instantiate::<$slave>(instance_name, fmu_type, guid, functions, logging_on)
+            $crate::ffi::instantiate::<$slave>(
+                instance_name, fmu_type, guid, resource_location, functions, logging_on,
+            )
         }
 
         #[no_mangle]

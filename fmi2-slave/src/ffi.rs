@@ -90,6 +90,7 @@ pub unsafe fn instantiate<S: Slave>(
     instance_name: *const c_char,
     fmu_type: Type,
     guid: *const c_char,
+    resource_location: *const c_char,
     functions: *const CallbackFunctions,
     logging_on: Boolean,
 ) -> Component {
@@ -125,12 +126,18 @@ pub unsafe fn instantiate<S: Slave>(
                 ))
             }
         };
-        let own = S::guid();
+        let resources = text(resource_location).and_then(|u| crate::resources::directory(&u));
+        let slave = match S::instantiate(resources.as_deref(), &text(guid).unwrap_or_default()) {
+            Ok(s) => s,
+            Err(e) => return fail(e),
+        };
+        let own = slave.instance_guid();
         match text(guid) {
             Some(g) if g == own => {}
-            other => return fail(format!("GUID {other:?} does not match this binary's {own}")),
+            other => return fail(format!("GUID {other:?} does not match this FMU's {own}")),
         }
-        Some(Box::into_raw(Box::new(Instance::<S>::new(log, model_exchange))) as Component)
+        let i = Instance::<S>::new(log, model_exchange, slave);
+        Some(Box::into_raw(Box::new(i)) as Component)
     });
     built.ok().flatten().unwrap_or(std::ptr::null_mut())
 }
@@ -491,7 +498,7 @@ pub unsafe fn deserialize_fmu_state<S: Slave>(
 ) -> Status {
     with::<S>(c, "fmi2DeSerializeFMUstate", allowed::ANY, |i| {
         let bytes = slice(buf as *const u8, size, "serializedState")?;
-        let saved = fmu_state::decode::<S>(bytes)
+        let saved = fmu_state::decode::<S>(bytes, &i.slave)
             .map_err(|e| error(format!("serialized state rejected: {e}")))?;
         store_state(i, state, saved)
     })

@@ -104,13 +104,13 @@ pub fn encode_payload<S: Slave>(s: &Saved<S>) -> Vec<u8> {
 }
 
 /// Reads a payload; all of it must be used.
-pub fn decode_payload<S: Slave>(payload: &[u8]) -> Result<Saved<S>, String> {
+pub fn decode_payload<S: Slave>(payload: &[u8], like: &S) -> Result<Saved<S>, String> {
     let mut r = Reader {
         data: payload,
         pos: 0,
     };
     let state = FmiState::from_bits(r.u()?).ok_or("unknown FMI state")?;
-    let slave = S::decode(&mut r)?;
+    let slave = like.decode_for(&mut r)?;
     if r.pos != payload.len() {
         return Err(format!(
             "{} unread bytes at the end of the payload",
@@ -122,7 +122,7 @@ pub fn decode_payload<S: Slave>(payload: &[u8]) -> Result<Saved<S>, String> {
 
 pub fn encode<S: Slave>(s: &Saved<S>) -> Vec<u8> {
     let payload = encode_payload(s);
-    let guid = S::guid();
+    let guid = s.slave.instance_guid();
     let mut out = Vec::with_capacity(payload.len() + 80);
     out.extend_from_slice(&S::STATE_MAGIC);
     out.extend_from_slice(&S::STATE_FORMAT_VERSION.to_le_bytes());
@@ -134,7 +134,8 @@ pub fn encode<S: Slave>(s: &Saved<S>) -> Vec<u8> {
     out
 }
 
-pub fn decode<S: Slave>(bytes: &[u8]) -> Result<Saved<S>, String> {
+/// A serialized state of the FMU of `like` (its GUID, and its resources for `decode_for`).
+pub fn decode<S: Slave>(bytes: &[u8], like: &S) -> Result<Saved<S>, String> {
     let take = |pos: &mut usize, n: usize| -> Result<&[u8], String> {
         let s = bytes
             .get(*pos..*pos + n)
@@ -158,10 +159,10 @@ pub fn decode<S: Slave>(bytes: &[u8]) -> Result<Saved<S>, String> {
     }
     let glen = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4")) as usize;
     let guid = String::from_utf8_lossy(take(&mut pos, glen.min(256))?).into_owned();
-    if guid != S::guid() {
+    let own = like.instance_guid();
+    if guid != own {
         return Err(format!(
-            "state of another model build (GUID {guid}, this FMU is {})",
-            S::guid()
+            "state of another model build (GUID {guid}, this FMU is {own})"
         ));
     }
     let plen = u64::from_le_bytes(take(&mut pos, 8)?.try_into().expect("8")) as usize;
@@ -176,5 +177,5 @@ pub fn decode<S: Slave>(bytes: &[u8]) -> Result<Saved<S>, String> {
     if sum != fnv64(payload) {
         return Err("checksum mismatch: the state is corrupted".into());
     }
-    decode_payload(payload)
+    decode_payload(payload, like)
 }

@@ -137,14 +137,14 @@ pub struct Instance<S: Slave> {
 pub(crate) const MAGIC: u64 = 0x464d_4932_534c_4156; // "FMI2SLAV"
 
 impl<S: Slave> Instance<S> {
-    pub fn new(log: Logger, model_exchange: bool) -> Instance<S> {
+    pub fn new(log: Logger, model_exchange: bool, slave: S) -> Instance<S> {
         Instance {
             magic: MAGIC,
             log,
             state: FmiState::Instantiated,
             model_exchange,
             fmi3: false,
-            slave: S::fresh(),
+            slave,
             fmu_states: HashSet::new(),
             strings: Vec::new(),
             coarse_step_reported: false,
@@ -206,7 +206,7 @@ impl<S: Slave> Instance<S> {
 
     pub fn reset(&mut self) {
         self.state = FmiState::Instantiated;
-        self.slave = S::fresh();
+        self.slave.reset_model();
         self.coarse_step_reported = false;
     }
 

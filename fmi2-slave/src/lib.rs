@@ -26,6 +26,7 @@ pub mod fmu_state;
 pub mod instance;
 pub mod logging;
 pub mod model_exchange;
+pub mod resources;
 mod slave;
 
 mod export;

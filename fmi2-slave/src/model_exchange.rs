@@ -131,7 +131,7 @@ pub unsafe fn set_time<S: Slave>(c: Component, time: f64) -> Status {
 
 pub unsafe fn set_continuous_states<S: Slave>(c: Component, x: *const f64, nx: usize) -> Status {
     with_me::<S>(c, "fmi2SetContinuousStates", allowed::CONT, |i| {
-        sized(nx, S::N_STATES, i.arg("nx"))?;
+        sized(nx, i.slave.n_states(), i.arg("nx"))?;
         let x = slice(x, nx, i.arg("x"))?;
         if let Some(k) = x.iter().position(|v| !v.is_finite()) {
             let name = i.arg("x");
@@ -150,12 +150,12 @@ unsafe fn get_array<S: Slave>(
     func: &str,
     p: *mut f64,
     n: usize,
-    (expected, what): (usize, &'static str),
+    (expected, what): (fn(&S) -> usize, &'static str),
     label: fn(usize) -> String,
     get: impl FnOnce(&mut S, &mut [f64]) -> Result<(), Failure>,
 ) -> Status {
     with_me::<S>(c, func, allowed::ME_GET, |i| {
-        sized(n, expected, i.arg(what))?;
+        sized(n, expected(&i.slave), i.arg(what))?;
         let out = slice_mut(p, n, "the array")?;
         get(&mut i.slave, out)?;
         if let Some(k) = out.iter().position(|v| !v.is_finite()) {
@@ -171,7 +171,7 @@ unsafe fn get_array<S: Slave>(
 }
 
 pub unsafe fn get_derivatives<S: Slave>(c: Component, dx: *mut f64, nx: usize) -> Status {
-    let size = (S::N_STATES, "nx");
+    let size = (S::n_states as fn(&S) -> usize, "nx");
     let label = |k| format!("der({})", S::state_name(k));
     get_array::<S>(
         c,
@@ -185,7 +185,7 @@ pub unsafe fn get_derivatives<S: Slave>(c: Component, dx: *mut f64, nx: usize) -
 }
 
 pub unsafe fn get_event_indicators<S: Slave>(c: Component, z: *mut f64, ni: usize) -> Status {
-    let size = (S::N_EVENT_INDICATORS, "ni");
+    let size = (S::n_event_indicators as fn(&S) -> usize, "ni");
     let label = |k| format!("event indicator {k}");
     get_array::<S>(
         c,
@@ -199,7 +199,7 @@ pub unsafe fn get_event_indicators<S: Slave>(c: Component, z: *mut f64, ni: usiz
 }
 
 pub unsafe fn get_continuous_states<S: Slave>(c: Component, x: *mut f64, nx: usize) -> Status {
-    let size = (S::N_STATES, "nx");
+    let size = (S::n_states as fn(&S) -> usize, "nx");
     let label = |k| S::state_name(k).to_string();
     get_array::<S>(
         c,
@@ -217,7 +217,7 @@ pub unsafe fn get_nominals_of_continuous_states<S: Slave>(
     x: *mut f64,
     nx: usize,
 ) -> Status {
-    let size = (S::N_STATES, "nx");
+    let size = (S::n_states as fn(&S) -> usize, "nx");
     let label = |k| format!("the nominal of {}", S::state_name(k));
     get_array::<S>(
         c,

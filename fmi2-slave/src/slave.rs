@@ -27,6 +27,25 @@ pub trait Slave: Clone + 'static {
     /// A new instance, as after fmi2Instantiate or fmi2Reset.
     fn fresh() -> Self;
 
+    /// fmi2Instantiate: a new instance of the FMU of GUID `guid` whose resources are the
+    /// directory `resources` (None when the master gives none). A model whose FMUs differ only
+    /// by their resources reads them here (SpurGearTrain's gearbox FMUs); the default ignores
+    /// them. The layer then checks `guid` against `instance_guid`.
+    fn instantiate(_resources: Option<&std::path::Path>, _guid: &str) -> Result<Self, String> {
+        Ok(Self::fresh())
+    }
+
+    /// The GUID (FMI 3.0: instantiation token) of this instance's FMU: `guid()`, unless its
+    /// resources made it another FMU.
+    fn instance_guid(&self) -> String {
+        Self::guid().to_owned()
+    }
+
+    /// fmi2Reset: the instance as after fmi2Instantiate.
+    fn reset_model(&mut self) {
+        *self = Self::fresh();
+    }
+
     /// fmi2SetupExperiment (in the instantiated state).
     fn setup_experiment(
         &mut self,
@@ -139,6 +158,10 @@ pub trait Slave: Clone + 'static {
     fn encode(&self, w: &mut Writer);
     /// Reads what `encode` wrote (the layer checks that nothing is left over).
     fn decode(r: &mut Reader) -> Result<Self, String>;
+    /// `decode` for the FMU of this instance (whose resources a state does not carry).
+    fn decode_for(&self, r: &mut Reader) -> Result<Self, String> {
+        Self::decode(r)
+    }
 
     // ---- Model Exchange ---------------------------------------------------------------------
     // A model with `MODEL_EXCHANGE` may be instantiated as fmi2ModelExchange; the layer calls
@@ -151,6 +174,19 @@ pub trait Slave: Clone + 'static {
     const N_EVENT_INDICATORS: usize = 0;
     /// FMI 3.0 declares the event indicators as variables: their value references start here.
     const EVENT_INDICATOR_VR0: u32 = 0;
+
+    /// This instance's numbers of continuous states and event indicators and the value
+    /// reference of its first FMI 3.0 event indicator: the constants, unless its resources
+    /// made it another FMU.
+    fn n_states(&self) -> usize {
+        Self::N_STATES
+    }
+    fn n_event_indicators(&self) -> usize {
+        Self::N_EVENT_INDICATORS
+    }
+    fn event_indicator_vr0(&self) -> u32 {
+        Self::EVENT_INDICATOR_VR0
+    }
 
     /// The name of continuous state k (messages).
     fn state_name(_k: usize) -> &'static str {

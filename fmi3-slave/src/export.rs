@@ -75,14 +75,14 @@ macro_rules! export_fmi3 {
         pub unsafe extern "C" fn fmi3InstantiateModelExchange(
             name: *const ::std::os::raw::c_char,
             token: *const ::std::os::raw::c_char,
-            _resource_path: *const ::std::os::raw::c_char,
+            resource_path: *const ::std::os::raw::c_char,
             _visible: bool,
             logging_on: bool,
             env: $crate::Fmi3InstanceEnvironment,
             log_message: $crate::Fmi3LogMessageCallback,
         ) -> $crate::Fmi3Instance {
             $crate::ffi::instantiate::<$slave>(
-                "fmi3InstantiateModelExchange", name, token, true, false, logging_on, env, log_message,
+                "fmi3InstantiateModelExchange", name, token, resource_path, true, false, logging_on, env, log_message,
             )
         }
 
@@ -90,7 +90,7 @@ macro_rules! export_fmi3 {
         pub unsafe extern "C" fn fmi3InstantiateCoSimulation(
             name: *const ::std::os::raw::c_char,
             token: *const ::std::os::raw::c_char,
-            _resource_path: *const ::std::os::raw::c_char,
+            resource_path: *const ::std::os::raw::c_char,
             _visible: bool,
             logging_on: bool,
             event_mode_used: bool,
@@ -102,7 +102,7 @@ macro_rules! export_fmi3 {
             _intermediate_update: $crate::Fmi3IntermediateUpdateCallback,
         ) -> $crate::Fmi3Instance {
             $crate::ffi::instantiate::<$slave>(
-                "fmi3InstantiateCoSimulation", name, token, false, event_mode_used, logging_on, env,
+                "fmi3InstantiateCoSimulation", name, token, resource_path, false, event_mode_used, logging_on, env,
                 log_message,
             )
         }
@@ -355,7 +355,7 @@ macro_rules! export_fmi3 {
             c: $crate::Fmi3Instance,
             n: *mut usize,
         ) -> $crate::Fmi3Status {
-            let count = <$slave as ::fmi2_slave::Slave>::N_EVENT_INDICATORS;
+            let count = <$slave as ::fmi2_slave::Slave>::n_event_indicators;
             $crate::ffi::get_number::<$slave>(c, "fmi3GetNumberOfEventIndicators", count, n)
         }
 
@@ -364,7 +364,7 @@ macro_rules! export_fmi3 {
             c: $crate::Fmi3Instance,
             n: *mut usize,
         ) -> $crate::Fmi3Status {
-            let count = <$slave as ::fmi2_slave::Slave>::N_STATES;
+            let count = <$slave as ::fmi2_slave::Slave>::n_states;
             $crate::ffi::get_number::<$slave>(c, "fmi3GetNumberOfContinuousStates", count, n)
         }
 

@@ -34,6 +34,7 @@ pub unsafe fn instantiate<S: Slave>(
     func: &str,
     instance_name: *const c_char,
     token: *const c_char,
+    resource_path: *const c_char,
     model_exchange: bool,
     event_mode_used: bool,
     logging_on: bool,
@@ -58,16 +59,21 @@ pub unsafe fn instantiate<S: Slave>(
                 "eventModeUsed = true, but hasEventMode is false: the FMU handles its events inside fmi3DoStep".into(),
             );
         }
-        let own = S::guid();
+        let resources = text(resource_path).and_then(|p| fmi2_slave::resources::directory(&p));
+        let slave = match S::instantiate(resources.as_deref(), &text(token).unwrap_or_default()) {
+            Ok(s) => s,
+            Err(e) => return fail(e),
+        };
+        let own = slave.instance_guid();
         match text(token) {
             Some(g) if g == own => {}
             other => {
                 return fail(format!(
-                    "instantiationToken {other:?} does not match this binary's {own}"
+                    "instantiationToken {other:?} does not match this FMU's {own}"
                 ))
             }
         }
-        let mut i = Instance::<S>::new(log, model_exchange);
+        let mut i = Instance::<S>::new(log, model_exchange, slave);
         i.fmi3 = true;
         Some(Box::into_raw(Box::new(i)) as Component)
     });
@@ -134,14 +140,15 @@ fn counts(n_vr: usize, n_values: usize) -> Result<(), Failure> {
 }
 
 /// The event indicator a value reference names, if any.
-fn indicator<S: Slave>(vr: ValueReference) -> Option<usize> {
-    let k = vr.checked_sub(S::EVENT_INDICATOR_VR0)? as usize;
-    (S::EVENT_INDICATOR_VR0 > 0 && k < S::N_EVENT_INDICATORS).then_some(k)
+fn indicator<S: Slave>(s: &S, vr: ValueReference) -> Option<usize> {
+    let vr0 = s.event_indicator_vr0();
+    let k = vr.checked_sub(vr0)? as usize;
+    (vr0 > 0 && k < s.n_event_indicators()).then_some(k)
 }
 
 /// The independent variable and the event indicators cannot be set.
-fn settable<S: Slave>(vrs: &[ValueReference]) -> Result<(), Failure> {
-    match vrs.iter().find(|&&r| r == 0 || indicator::<S>(r).is_some()) {
+fn settable<S: Slave>(s: &S, vrs: &[ValueReference]) -> Result<(), Failure> {
+    match vrs.iter().find(|&&r| r == 0 || indicator(s, r).is_some()) {
         Some(0) => Err(error(
             "time (value reference 0) is the independent variable: it cannot be set".into(),
         )),
@@ -165,11 +172,11 @@ pub unsafe fn get_float64<S: Slave>(
         let out = slice_mut(values, n_vr, "values")?;
         let mut z: Vec<f64> = Vec::new();
         for (o, &r) in out.iter_mut().zip(vrs) {
-            *o = match (r, indicator::<S>(r)) {
+            *o = match (r, indicator(&i.slave, r)) {
                 (0, _) => i.slave.time(),
                 (_, Some(k)) => {
                     if z.is_empty() {
-                        z = vec![0.0; S::N_EVENT_INDICATORS];
+                        z = vec![0.0; i.slave.n_event_indicators()];
                         i.slave.me_event_indicators(&mut z)?;
                     }
                     z[k]
@@ -191,7 +198,7 @@ pub unsafe fn set_float64<S: Slave>(
     with::<S>(c, "fmi3SetFloat64", allowed::SET, |i| {
         counts(n_vr, n_values)?;
         let vrs = slice(vr, n_vr, "valueReferences")?;
-        settable::<S>(vrs)?;
+        settable(&i.slave, vrs)?;
         let vals = slice(values, n_vr, "values")?;
         let running = allowed::RUNNING & i.state as u32 != 0;
         i.slave.set_real(vrs, vals, running)?;
@@ -402,9 +409,14 @@ pub unsafe fn completed_integrator_step<S: Slave>(
 }
 
 /// fmi3GetNumberOfEventIndicators and fmi3GetNumberOfContinuousStates.
-pub unsafe fn get_number<S: Slave>(c: Component, func: &str, n: usize, out: *mut usize) -> Status {
-    with::<S>(c, func, allowed::ANY, |_| {
-        put(out, "the count", n)?;
+pub unsafe fn get_number<S: Slave>(
+    c: Component,
+    func: &str,
+    n: fn(&S) -> usize,
+    out: *mut usize,
+) -> Status {
+    with::<S>(c, func, allowed::ANY, |i| {
+        put(out, "the count", n(&i.slave))?;
         Ok(Status::Ok)
     })
 }

@@ -71,16 +71,21 @@ mod tests {
         let bytes = fmi2_slave::fmu_state::encode(&saved);
         assert_eq!(&bytes[..8], b"TSHSTATE");
         assert_eq!(
-            fmi2_slave::fmu_state::decode::<TorsionalShaft>(&bytes).unwrap(),
+            fmi2_slave::fmu_state::decode::<TorsionalShaft>(&bytes, &TorsionalShaft::fresh())
+                .unwrap(),
             saved
         );
         let mut flipped = bytes.clone();
         let k = bytes.len() - 20;
         flipped[k] ^= 1;
-        let e = fmi2_slave::fmu_state::decode::<TorsionalShaft>(&flipped).unwrap_err();
+        let e = fmi2_slave::fmu_state::decode::<TorsionalShaft>(&flipped, &TorsionalShaft::fresh())
+            .unwrap_err();
         assert!(e.contains("checksum"), "{e}");
-        let e =
-            fmi2_slave::fmu_state::decode::<TorsionalShaft>(&bytes[..bytes.len() - 1]).unwrap_err();
+        let e = fmi2_slave::fmu_state::decode::<TorsionalShaft>(
+            &bytes[..bytes.len() - 1],
+            &TorsionalShaft::fresh(),
+        )
+        .unwrap_err();
         assert!(e.contains("length"), "{e}");
     }
 
@@ -95,7 +100,9 @@ mod tests {
                 slave: s,
             };
             let bytes = fmi2_slave::fmu_state::encode(&saved);
-            let e = fmi2_slave::fmu_state::decode::<TorsionalShaft>(&bytes).unwrap_err();
+            let e =
+                fmi2_slave::fmu_state::decode::<TorsionalShaft>(&bytes, &TorsionalShaft::fresh())
+                    .unwrap_err();
             assert!(e.contains(name), "{e}");
         }
     }

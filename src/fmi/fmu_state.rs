@@ -201,7 +201,10 @@ mod tests {
     }
 
     fn decode(bytes: &[u8]) -> Result<(FmiState, Snapshot), String> {
-        let saved = fmi2_slave::fmu_state::decode::<SpurGearMesh>(bytes)?;
+        let saved = fmi2_slave::fmu_state::decode::<SpurGearMesh>(
+            bytes,
+            &<SpurGearMesh as fmi2_slave::Slave>::fresh(),
+        )?;
         Ok((saved.state, saved.slave.snap))
     }
 
