@@ -105,7 +105,7 @@ fn index(s: Support) -> i32 {
 }
 
 /// Everything but the bodies' start speeds.
-fn values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
+pub fn values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
     let mut v: Vec<(String, Start)> = Vec::new();
     let mut put = |name: String, x: Start| v.push((name, x));
     let real = |x: f64| Start::Real(x);
@@ -419,6 +419,15 @@ fn coefficient(row: &Row, i: usize) -> f64 {
 /// A message of the train (`mesh[4]`, `body[2].J`, `shaft[1]`) in the file's names, with the
 /// line of the first element it names: "parameter wheel_hss.backlash = -1: ... (line 36)".
 pub fn in_file_names(g: &Gearbox, msg: &str) -> String {
+    match renamed(g, msg) {
+        (out, Some(line)) => format!("{out} (line {line})"),
+        (out, None) => out,
+    }
+}
+
+/// A message of the train in the file's names, and the file's line of the first element it
+/// names (a gearbox FMU's messages leave the line out: its values come from the master).
+pub fn renamed(g: &Gearbox, msg: &str) -> (String, Option<usize>) {
     let mut out = String::with_capacity(msg.len() + 32);
     let mut first: Option<(String, String, String)> = None;
     let mut rest = msg;
@@ -464,10 +473,8 @@ pub fn in_file_names(g: &Gearbox, msg: &str) -> String {
     if out.contains("at the actual centre distance") && on_carrier(g, msg) {
         out.push_str("; the planets' orbit radius, which the set's other meshes fix, does not fit this pair: check the tooth counts and shifts (at zero shifts z_ring = z_sun + 2 z_planet)");
     }
-    match first.and_then(|(kind, name, key)| g.lines.of(&kind, &name, &key)) {
-        Some(line) => format!("{out} (line {line})"),
-        None => out,
-    }
+    let line = first.and_then(|(kind, name, key)| g.lines.of(&kind, &name, &key));
+    (out, line)
 }
 
 /// One reference in the file's names, with the (kind, name, key) whose line to give.

@@ -6,6 +6,8 @@
 
 pub mod build;
 pub mod exports;
+pub mod fmu;
 pub mod gearbox;
+pub mod gearbox_vars;
 pub mod instance;
 pub mod variables;
