@@ -19,8 +19,19 @@ pub fn target_dir() -> PathBuf {
 pub fn release_binary(package: &str) -> Vec<u8> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    // With fmu-packaging in the same build, cargo resolves the dependencies' features as for
+    // the packager that runs this (which links the model crates too): the two builds share
+    // their artifacts instead of rebuilding the model in turn (each takes minutes).
     let status = Command::new(cargo)
-        .args(["build", "--release", "--lib", "-p", package])
+        .args([
+            "build",
+            "--release",
+            "--lib",
+            "-p",
+            package,
+            "-p",
+            "fmu-packaging",
+        ])
         .current_dir(&root)
         .status()
         .expect("running cargo");

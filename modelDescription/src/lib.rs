@@ -15,7 +15,7 @@ pub mod train;
 /// The table's source text, compiled in so every user sees the same table.
 pub const TABLE_TOML: &str = include_str!("../variables.toml");
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 pub struct Table {
     /// The source text (the GUID is its hash).
     #[serde(skip)]
@@ -26,7 +26,7 @@ pub struct Table {
     pub vars: Vec<Var>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 pub struct ModelInfo {
     pub name: String,
     pub description: String,
@@ -60,7 +60,7 @@ pub struct ModelInfo {
     pub model_exchange: Option<ModelExchange>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 pub struct ModelExchange {
     /// The value reference of the first event indicator (FMI 3.0 declares them as variables).
     pub event_indicator_vr: u32,
@@ -83,7 +83,7 @@ pub struct Unit {
     pub display: Vec<(String, f64)>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 pub struct Var {
     pub name: String,
     pub vr: u32,

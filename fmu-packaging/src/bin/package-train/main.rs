@@ -10,13 +10,30 @@
 //! binaries/x86_64-windows/SpurGearTrain.dll.
 //!
 //! Usage: `cargo run -q --release -p fmu-packaging --bin package-train`; prints the path.
+//! With `-- --gearbox FILE`, the FMU of the gearbox in FILE instead (`gearbox_fmu.rs`).
+
+mod gearbox_fmu;
+mod layout;
 
 use model_description::{model_description_xml, model_description_xml3, train, Table};
 
-const LAYOUT_PNG: &[u8] = include_bytes!("../../../docs/train-layout.png");
-const PLANETARY_PNG: &[u8] = include_bytes!("../../../docs/planetary-layout.png");
+const LAYOUT_PNG: &[u8] = include_bytes!("../../../../docs/train-layout.png");
+const PLANETARY_PNG: &[u8] = include_bytes!("../../../../docs/planetary-layout.png");
 
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.as_slice() {
+        [] => {}
+        [flag, file] if flag == "--gearbox" => {
+            let path = gearbox_fmu::package(file, &train::load());
+            println!("{}", path.display());
+            return;
+        }
+        _ => {
+            eprintln!("usage: package-train [--gearbox FILE]");
+            std::process::exit(2);
+        }
+    }
     let so = fmu_packaging::release_binary("spur_gear_train");
     let dll = fmu_packaging::windows_binary("spur_gear_train");
     let table = train::load();

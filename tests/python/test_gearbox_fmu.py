@@ -1,0 +1,165 @@
+"""The FMU of a gearbox (gearbox-file.md §2) through FMPy: `package-train --gearbox FILE`
+writes NAME.fmu and NAME-fmi3.fmu, which FMPy validates and runs in both interfaces with the
+file's values as start values; the run equals SpurGearTrain's given the scene's values; its
+default outputs are the gearbox's own; a missing or damaged gearbox file in its resources fails
+the instantiation with a message.
+"""
+
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tools"))
+
+import scene_to_ssp as X  # noqa: E402
+
+SCENES = ["two-stage", "planetary-simple"]
+
+
+def package(path, out_dir):
+    """Packages the gearbox file at `path` into `out_dir`; returns the FMI 2.0 FMU's path."""
+    import os
+
+    env = dict(os.environ, FMU_OUT_DIR=str(out_dir))
+    r = subprocess.run(["cargo", "run", "-q", "--release", "-p", "fmu-packaging", "--bin", "package-train",
+                        "--", "--gearbox", str(path)], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    fmu = Path(r.stdout.strip().splitlines()[-1])
+    assert fmu.is_file() and fmu.with_name(fmu.stem + "-fmi3.fmu").is_file()
+    return fmu
+
+
+@pytest.fixture(scope="module")
+def gearbox_fmus(tmp_path_factory, train_fmu_path):
+    out = tmp_path_factory.mktemp("gearbox-fmus")
+    return {name: package(ROOT / "scenes" / "train" / "gearbox" / f"{name}.toml", out) for name in SCENES}
+
+
+def outputs(md):
+    return [v.name for v in md.modelVariables if v.causality == "output"]
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_the_gearbox_fmu_validates_and_declares_only_its_elements(name, gearbox_fmus):
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    for fmu in (gearbox_fmus[name], gearbox_fmus[name].with_name(gearbox_fmus[name].stem + "-fmi3.fmu")):
+        assert validate_fmu(str(fmu)) == [], fmu
+    md = fmpy.read_model_description(str(gearbox_fmus[name]))
+    names = [v.name for v in md.modelVariables]
+    assert not any(n.startswith(("body[", "mesh[", "shaft[", "n_bodies")) for n in names), names
+    g = X.load_scene(str(ROOT / "scenes" / "train" / "gearbox" / f"{name}.toml"))
+    nb = g["start_values"]["n_bodies"]
+    nm = g["start_values"]["n_meshes"]
+    # Model Exchange: exactly this gearbox's states and event indicators.
+    assert len(md.derivatives) == 2 + 2 * nb
+    assert md.numberOfEventIndicators == 32 * nm
+    assert sum(n.endswith(".w") for n in outputs(md)) == nb
+    assert sum(n.endswith(".dte") for n in outputs(md)) == nm
+    with zipfile.ZipFile(gearbox_fmus[name]) as z:
+        files = z.namelist()
+        assert "resources/gearbox.toml" in files and "documentation/layout.svg" in files
+        doc = z.read("documentation/index.html").decode()
+        assert "layout.svg" in doc and all(n in doc for n in outputs(md))
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_the_gearbox_fmu_runs_as_spur_gear_train(name, gearbox_fmus, train_fmu_path):
+    """The same traces as SpurGearTrain given the scene's values, to 1e-12 of each range (the
+    same model with the same values: in fact to the bit), in Co-Simulation and Model Exchange."""
+    import fmpy
+
+    scene = X.load_scene(name)
+    sv = scene["start_values"]
+    h, t = float(scene["output_interval"]), float(scene["stop_time"])
+    md = fmpy.read_model_description(str(gearbox_fmus[name]))
+    own = outputs(md)
+    # The gearbox names its bodies and meshes in the file's order, which is the train's.
+    pairs = []
+    for suffix, kind in ((".w", "body"), (".theta", "body"), (".dte", "mesh"), (".F_fwd", "mesh")):
+        mine = [n for n in own if n.endswith(suffix)]
+        pairs += [(n, f"{kind}[{i + 1}]{suffix}") for i, n in enumerate(mine)]
+    pairs.append(("housing.tau", "housing.tau"))
+    # Co-Simulation: the FMU's own integrator on the same model and values, to rounding.
+    # Model Exchange: FMPy's CVode integrates 2 + 2 n_bodies states here and 34 there (the
+    # unused ones constant), which changes its error norm and so its steps: the traces agree to
+    # the integration error, bounded here by 1e-4 of each range (100 times CVode's rtol 1e-6,
+    # the usual margin of global over local error), on the output grid (event rows differ).
+    for fmi_type, stop, bound in (("CoSimulation", t, 1e-12), ("ModelExchange", min(t, 0.01), 1e-4)):
+        a = fmpy.simulate_fmu(str(gearbox_fmus[name]), stop_time=stop, output_interval=h, fmi_type=fmi_type,
+                              relative_tolerance=1e-6)
+        b = fmpy.simulate_fmu(str(train_fmu_path), stop_time=stop, output_interval=h, start_values=sv,
+                              output=[q for _, q in pairs], fmi_type=fmi_type, relative_tolerance=1e-6)
+        a, b = (r[_on_grid(r["time"], h)] for r in (a, b))
+        assert len(a) == len(b) > 10 and np.array_equal(a["time"], b["time"])
+        for mine, theirs in pairs:
+            span = max(np.ptp(b[theirs]), np.max(np.abs(b[theirs])), 1e-300)
+            err = np.max(np.abs(a[mine] - b[theirs]))
+            assert err <= bound * span, f"{name} {fmi_type} {mine} vs {theirs}: {err:.3g} of {span:.3g}"
+
+
+def _on_grid(t, h):
+    """The rows at the output grid's points, each once (FMPy adds rows at events)."""
+    k = np.round(t / h)
+    grid = np.abs(t - k * h) <= 1e-9 * h
+    first = np.concatenate(([True], np.diff(t) > 0))
+    return grid & first
+
+
+def test_default_outputs_are_the_gearbox_own(gearbox_fmus):
+    """`fmpy simulate` with no output list records the gearbox's outputs only (per body theta
+    and w, per mesh dte, F_fwd, F_bwd, F and the contact counts, per shaft tau, housing.tau and
+    the energy residual), not every local SpurGearTrain can show."""
+    import fmpy
+
+    md = fmpy.read_model_description(str(gearbox_fmus["planetary-simple"]))
+    r = fmpy.simulate_fmu(str(gearbox_fmus["planetary-simple"]), stop_time=0.002)
+    assert set(r.dtype.names) == {"time", *outputs(md)}
+    assert len(outputs(md)) < 60 < len(md.modelVariables)
+    f = [n for n in outputs(md) if n.endswith(".F")]
+    assert len(f) == 6
+    for n in f:
+        mesh = n[:-2]
+        assert np.array_equal(r[n], r[f"{mesh}.F_fwd"] + r[f"{mesh}.F_bwd"]), n
+
+
+def _instantiate_errors(fmu, unzipped):
+    """Instantiates the unzipped `fmu` through FMPy (conftest's Instance, which records the log);
+    returns the logged errors, or None when it instantiated."""
+    import fmpy
+    from conftest import Instance
+
+    md = fmpy.read_model_description(str(fmu))
+    inst = Instance(str(unzipped), md, model_identifier=md.coSimulation.modelIdentifier, instantiate=False)
+    try:
+        inst.slave.instantiate(callbacks=inst.callbacks, loggingOn=True)
+    except Exception:
+        return [m for _, _, m in inst.messages] or ["instantiate failed, nothing logged"]
+    inst.instantiated = True
+    inst.free()
+    return None
+
+
+def test_a_missing_or_damaged_gearbox_file_is_refused(gearbox_fmus, tmp_path):
+    fmu = gearbox_fmus["two-stage"]
+    ok = tmp_path / "ok"
+    shutil.unpack_archive(fmu, ok, "zip")
+    assert _instantiate_errors(fmu, ok) is None
+    missing = tmp_path / "missing"
+    shutil.unpack_archive(fmu, missing, "zip")
+    (missing / "resources" / "gearbox.toml").unlink()
+    errors = _instantiate_errors(fmu, missing)
+    assert errors and any("gearbox.toml" in e and "cannot be read" in e for e in errors), errors
+    damaged = tmp_path / "damaged"
+    shutil.unpack_archive(fmu, damaged, "zip")
+    p = damaged / "resources" / "gearbox.toml"
+    p.write_text(p.read_text().replace("J = 0.004", "J = 0.004\nmass = 2.0"))
+    errors = _instantiate_errors(fmu, damaged)
+    assert errors and any("unknown field `mass`" in e for e in errors), errors
