@@ -5,7 +5,9 @@
 # .venv) and loading binaries/linux64/SpurGearMesh.so from the .fmu with dlopen.
 #
 # Usage: bash tools/reliability.sh [steps]      (default 20000 communication steps of 1e-4 s; ~20 s)
-# SpurGearTrain then runs steps/4 steps of two instances (tests/c/train_memcheck.c) the same way.
+# SpurGearTrain then runs steps/4 steps of two instances (tests/c/train_memcheck.c) the same way,
+# and a gearbox FMU (package-train --gearbox) steps/4 steps, its missing and damaged gearbox file
+# refused (tests/c/gearbox_memcheck.c).
 # Called by tools/test-all.sh after packaging. Needs gcc and valgrind (installed with apt-get
 # if missing and possible).
 set -euo pipefail
@@ -98,3 +100,33 @@ valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite
   --errors-for-leak-kinds=definite,indirect --track-origins=yes \
   "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" "$5" "$6" "$7" "$8"
 echo "== valgrind (SpurGearTrain): no memory errors, no definite or indirect leaks"
+
+echo "== a gearbox FMU: package scenes/gearbox/planetary-simple.toml, compile tests/c/gearbox_memcheck.c"
+gb=$(FMU_OUT_DIR="$work/fmu" cargo run -q -p fmu-packaging --release --bin package-train -- \
+  --gearbox scenes/gearbox/planetary-simple.toml | tail -n 1)
+[ -f "$gb" ] || { echo "reliability.sh: package-train --gearbox printed '$gb'" >&2; exit 1; }
+mkdir -p "$work/gb" "$work/missing" "$work/damaged"
+args=$("$py" - "$gb" "$work" <<'EOF'
+import sys, zipfile, xml.etree.ElementTree as ET
+fmu, work = sys.argv[1], sys.argv[2]
+z = zipfile.ZipFile(fmu)
+z.extractall(f"{work}/gb")
+md = ET.fromstring(z.read("modelDescription.xml"))
+vr = {v.get("name"): v.get("valueReference") for v in md.iter("ScalarVariable")}
+text = z.read("resources/gearbox.toml").decode()
+assert "J = 0.002" in text
+open(f"{work}/damaged/gearbox.toml", "w").write(text.replace("J = 0.002", "J = -0.002"))
+print(md.get("guid"), md.find("CoSimulation").get("modelIdentifier"), vr["set.sun.w"], vr["set.planet1.E"])
+EOF
+)
+# shellcheck disable=SC2086
+set -- $args
+gcc -std=c99 -g -O1 -Wall -Wextra -Werror -I"$inc" tests/c/gearbox_memcheck.c -ldl -lm -o "$work/gearbox_memcheck"
+gargs=("$work/gb/binaries/linux64/$2.so" "$1" "$tsteps" "file://$work/gb/resources"
+  "file://$work/missing" "file://$work/damaged" "$3" "$4")
+echo "== the gearbox FMU: $tsteps steps natively"
+"$work/gearbox_memcheck" "${gargs[@]}"
+echo "== the gearbox FMU: $tsteps steps under valgrind (memcheck), missing and damaged files included"
+valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite,indirect \
+  --errors-for-leak-kinds=definite,indirect --track-origins=yes "$work/gearbox_memcheck" "${gargs[@]}"
+echo "== valgrind (gearbox FMU): no memory errors, no definite or indirect leaks"

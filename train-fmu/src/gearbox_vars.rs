@@ -206,8 +206,8 @@ const SHAFT_OUTPUTS: [&str; 1] = ["tau"];
 const WHOLE_OUTPUTS: [&str; 2] = ["housing.tau", "energy_residual"];
 
 /// What the file fixes: not variables of the gearbox FMU.
-const STRUCTURE: [&str; 8] = [
-    "n_bodies", "n_shafts", "n_meshes", "carrier", "a", "b", "geometry", "internal",
+const STRUCTURE: [&str; 10] = [
+    "n_bodies", "n_shafts", "n_meshes", "carrier", "a", "b", "A", "B", "geometry", "internal",
 ];
 /// A planet's own body parameters.
 const PLANET_ONLY: [&str; 4] = ["orbit_angle", "m", "pin_error_r", "pin_error_t"];

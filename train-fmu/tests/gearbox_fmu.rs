@@ -96,6 +96,19 @@ fn a_gearbox_fmu_runs_as_spur_gear_train_on_every_scene() {
         let mut gearbox = instantiate(&text, "scenes").unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(gearbox.instance_guid(), guid(&text));
         assert_ne!(gearbox.instance_guid(), GUID);
+        // The file fixes the structure: no counts, ends, carriers or front ends to set.
+        let fmu = gearbox.gearbox_fmu().unwrap().clone();
+        for v in &fmu.vars {
+            let field = v.name.rsplit('.').next().unwrap();
+            let structural = ["A", "B", "a", "b", "carrier", "geometry", "internal"];
+            assert!(!structural.contains(&field), "{}", v.name);
+            let counts = ["n_bodies", "n_shafts", "n_meshes"];
+            assert!(
+                !counts.contains(&v.name.as_str()) && !v.name.contains("mesh["),
+                "{}",
+                v.name
+            );
+        }
         let g = gearbox::parse(&text).unwrap();
         let (p, inputs) = params(&start_values(&g).unwrap()).unwrap();
         let mut train = SpurGearTrain::fresh();
@@ -256,6 +269,7 @@ fn a_missing_or_damaged_gearbox_file_is_refused() {
         assert_ne!(other.instance_guid(), g);
     }
     let plain = TrainFmu::instantiate(None, GUID).unwrap();
+    assert_eq!(plain.instance_guid(), GUID);
     assert_eq!(plain.n_states(), SpurGearTrain::N_STATES);
     assert!(plain.gearbox_fmu().is_none());
 }
@@ -294,6 +308,161 @@ fn a_gearbox_fmu_state_keeps_its_gears() {
                 "{}",
                 fmu.vars[vr as usize - 1].name
             );
+        }
+    }
+}
+
+// ---- Random call sequences through the exported C functions ---------------------------------
+
+mod fuzz {
+    use super::*;
+    use fmi2_slave::{CallbackFunctions, Component, LoggerFn, Status};
+    use proptest::prelude::*;
+    use spur_gear_train::exports::*;
+    use std::ffi::CString;
+    use std::os::raw::{c_char, c_int, c_void};
+
+    /// A logger that keeps nothing (the FMU passes no variadic arguments: see tests/fmi.rs).
+    unsafe extern "C" fn quiet(
+        _env: *mut c_void,
+        _instance: *const c_char,
+        _status: c_int,
+        _category: *const c_char,
+        _message: *const c_char,
+    ) {
+    }
+
+    #[derive(Clone, Debug)]
+    enum Call {
+        SetReal(u32, f64),
+        SetInt(u32, i32),
+        GetReal(u32),
+        Init,
+        Step(f64),
+        Reset,
+        SaveRestore,
+    }
+
+    fn call(n: u32) -> impl Strategy<Value = Call> {
+        let vr = 0..n + 40;
+        let value = prop_oneof![
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(-1.0),
+            Just(0.0),
+            -1e3..1e3f64,
+            1e-9..1e12f64,
+        ];
+        prop_oneof![
+            (vr.clone(), value).prop_map(|(r, x)| Call::SetReal(r, x)),
+            (vr.clone(), -2..40i32).prop_map(|(r, x)| Call::SetInt(r, x)),
+            vr.prop_map(Call::GetReal),
+            Just(Call::Init),
+            prop_oneof![Just(-1e-4), Just(0.0), Just(f64::NAN), 1e-6..2e-3f64].prop_map(Call::Step),
+            Just(Call::Reset),
+            Just(Call::SaveRestore),
+        ]
+    }
+
+    /// The planetary set's gearbox FMU, its resources as a file: URI.
+    fn setup() -> (String, CString, u32) {
+        let text =
+            std::fs::read_to_string(root().join("scenes/gearbox/planetary-simple.toml")).unwrap();
+        let dir = resources(&text, "fuzz");
+        let n = instantiate(&text, "fuzz-n")
+            .unwrap()
+            .gearbox_fmu()
+            .unwrap()
+            .vars
+            .len() as u32;
+        (
+            guid(&text),
+            CString::new(format!("file://{}", dir.display())).unwrap(),
+            n,
+        )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+        /// Whatever the sequence on a gearbox FMU (any value reference, NaN and infinite
+        /// values, steps before initialization, resets, FMU states): statuses are Ok, Warning,
+        /// Discard or Error, never a crash or a panic across the boundary, and a value read
+        /// with fmi2OK is finite.
+        #[test]
+        fn random_calls_on_a_gearbox_fmu_never_crash(calls in prop::collection::vec(call(setup().2), 1..25)) {
+            let (g, uri, _) = setup();
+            let callbacks = CallbackFunctions {
+                logger: Some(unsafe {
+                    std::mem::transmute::<
+                        unsafe extern "C" fn(*mut c_void, *const c_char, c_int, *const c_char, *const c_char),
+                        LoggerFn,
+                    >(quiet)
+                }),
+                allocate_memory: None,
+                free_memory: None,
+                step_finished: None,
+                component_environment: std::ptr::null_mut(),
+            };
+            let (name, g) = (CString::new("gearbox").unwrap(), CString::new(g).unwrap());
+            let c: Component = unsafe {
+                fmi2Instantiate(name.as_ptr(), 1, g.as_ptr(), uri.as_ptr(), &callbacks, 0, 0)
+            };
+            prop_assert!(!c.is_null());
+            let mut t = 0.0;
+            for call in calls {
+                let status = unsafe {
+                    match call {
+                        Call::SetReal(r, x) => fmi2SetReal(c, &r, 1, &x),
+                        Call::SetInt(r, x) => fmi2SetInteger(c, &r, 1, &x),
+                        Call::GetReal(r) => {
+                            let mut x = 0.0;
+                            let s = fmi2GetReal(c, &r, 1, &mut x);
+                            if s == Status::Ok {
+                                prop_assert!(x.is_finite(), "vr {r} = {x}");
+                            }
+                            s
+                        }
+                        Call::Init => {
+                            t = 0.0;
+                            fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
+                            fmi2EnterInitializationMode(c);
+                            fmi2ExitInitializationMode(c)
+                        }
+                        Call::Step(h) => {
+                            let s = fmi2DoStep(c, t, h, 1);
+                            if s == Status::Ok {
+                                t += h;
+                            }
+                            s
+                        }
+                        Call::Reset => {
+                            t = 0.0;
+                            fmi2Reset(c)
+                        }
+                        Call::SaveRestore => {
+                            let mut s = std::ptr::null_mut();
+                            let mut size = 0usize;
+                            let mut status = fmi2GetFMUstate(c, &mut s);
+                            if status == Status::Ok {
+                                fmi2SerializedFMUstateSize(c, s, &mut size);
+                                let mut bytes = vec![0 as c_char; size];
+                                fmi2SerializeFMUstate(c, s, bytes.as_mut_ptr(), size);
+                                let mut back = std::ptr::null_mut();
+                                status = fmi2DeSerializeFMUstate(c, bytes.as_ptr(), size, &mut back);
+                                if status == Status::Ok {
+                                    status = fmi2SetFMUstate(c, back);
+                                    fmi2FreeFMUstate(c, &mut back);
+                                }
+                                fmi2FreeFMUstate(c, &mut s);
+                            }
+                            status
+                        }
+                    }
+                };
+                prop_assert!(matches!(status, Status::Ok | Status::Warning | Status::Discard | Status::Error), "{status:?}");
+            }
+            unsafe { fmi2FreeInstance(c) };
         }
     }
 }
