@@ -75,6 +75,8 @@ cargo run -q -p fmu-packaging --release --bin package-train >/dev/null
 cargo run -q -p fmu-packaging --release --bin package-controller >/dev/null
 cargo run -q -p fmu-packaging --release --bin package-shaft >/dev/null
 cargo run -q -p fmu-packaging --release --bin package-engine >/dev/null
+# A gearbox FMU: SpurGearTrain's DLL under the gearbox's name, with its file in resources/.
+cargo run -q -p fmu-packaging --release --bin package-train -- --gearbox scenes/gearbox/planetary-simple.toml >/dev/null
 unset FMU_WINDOWS_DIR FMU_OUT_DIR
 publish() {
   mkdir -p target/fmu

@@ -57,6 +57,9 @@ FMUS = [
     ("SpeedController.fmu", "SpeedController", 2),
     ("TorsionalShaft.fmu", "TorsionalShaft", 2),
     ("EngineTorque.fmu", "EngineTorque", 2),
+    # A gearbox FMU (package-train --gearbox): SpurGearTrain's binary under the gearbox's name.
+    ("PlanetarySimple.fmu", "PlanetarySimple", 2),
+    ("PlanetarySimple-fmi3.fmu", "PlanetarySimple", 3),
 ]
 FOLDERS = {2: ("linux64", "win64"), 3: ("x86_64-linux", "x86_64-windows")}
 
@@ -129,6 +132,11 @@ def check_packages(fmu_dir, work):
         b = work / f"{mid}-fmi3" / f"binaries/x86_64-windows/{mid}.dll"
         if a.exists() and b.exists() and a.read_bytes() != b.read_bytes():
             fail(f"{mid}: the FMI 2.0 and 3.0 FMUs carry different DLLs")
+    # A gearbox FMU carries SpurGearTrain's DLL, byte for byte.
+    a = work / "SpurGearTrain" / "binaries/win64/SpurGearTrain.dll"
+    b = work / "PlanetarySimple" / "binaries/win64/PlanetarySimple.dll"
+    if a.exists() and b.exists() and a.read_bytes() != b.read_bytes():
+        fail("PlanetarySimple.fmu: its DLL is not SpurGearTrain's")
     return binaries
 
 
