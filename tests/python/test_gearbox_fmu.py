@@ -163,3 +163,37 @@ def test_a_missing_or_damaged_gearbox_file_is_refused(gearbox_fmus, tmp_path):
     p.write_text(p.read_text().replace("J = 0.004", "J = 0.004\nmass = 2.0"))
     errors = _instantiate_errors(fmu, damaged)
     assert errors and any("unknown field `mass`" in e for e in errors), errors
+
+
+def test_libcosim_runs_a_gearbox_fmu(gearbox_fmus):
+    """libcosim loads the gearbox FMU itself (it unzips it and passes its resources), and its run
+    is FMPy's to rounding: the same FMU at the same communication steps."""
+    import fmpy
+    from libcosimpy.CosimEnums import CosimVariableType
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    log_output_level(CosimLogLevel.ERROR)
+    fmu = gearbox_fmus["planetary-simple"]
+    h, n = 1e-4, 200
+    ns = int(round(h * 1e9))
+    ex = CosimExecution.from_step_size(step_size=ns)
+    index = ex.add_local_slave(CosimLocalSlave(fmu_path=str(fmu), instance_name="gearbox"))
+    variables = {v.name.decode(): v for v in ex.slave_variables(index)}
+    own = outputs(fmpy.read_model_description(str(fmu)))
+    names = [n for n in own if n.endswith(".w")][:2] + [n for n in own if n.endswith((".dte", ".F"))][:2]
+    names.append("housing.tau")
+    obs = CosimObserver.create_time_series(buffer_size=n + 16)
+    ex.add_observer(obs)
+    for q in names:
+        obs.start_time_series(index, variables[q].reference, CosimVariableType.REAL)
+    assert ex.simulate_until(n * ns)
+    ref = fmpy.simulate_fmu(str(fmu), stop_time=n * h, output_interval=h, output=names, set_stop_time=False)
+    for q in names:
+        _, steps, values = obs.time_series_real_samples(index, variables[q].reference, from_step=1, sample_count=n)
+        assert list(steps) == list(range(1, n + 1)), q
+        span = max(np.ptp(ref[q]), np.max(np.abs(ref[q])))
+        err = np.max(np.abs(np.array(values) - ref[q][1:n + 1]))
+        assert err <= 1e-12 * span, f"{q}: {err:.3g} of {span:.3g}"
