@@ -164,14 +164,22 @@ pub fn svg(g: &Gearbox) -> String {
             let _ = writeln!(s, "<line x1=\"{xa:.1}\" y1=\"{ya:.1}\" x2=\"{xb:.1}\" y2=\"{yb:.1}\" stroke=\"#c33\" stroke-width=\"1.5\"><title>mesh {}</title></line>", fmu_packaging::esc(&mesh.name));
         }
     }
+    let mut labels: Vec<(f64, f64)> = Vec::new();
     for &(k, p, r) in &circles {
         let (cx, cy) = px(p);
-        // A ring's name at its rim, the others' at their axis.
+        // A ring's name at its rim, the others' at their axis; gears on one axis (a shaft's
+        // bodies, two gears of a body) one line below the other.
         let y = if g.gears[k].internal {
             cy - r * scale + 14.0
         } else {
             cy + 4.0
         };
+        let same = labels
+            .iter()
+            .filter(|&&(x, y0)| (x - cx).abs() < 1.0 && (y0 - y).abs() < 1.0)
+            .count();
+        labels.push((cx, y));
+        let y = y + 14.0 * same as f64;
         let _ = writeln!(
             s,
             "<circle cx=\"{cx:.1}\" cy=\"{cy:.1}\" r=\"2\" fill=\"#345\"/><text x=\"{cx:.1}\" y=\"{y:.1}\" text-anchor=\"middle\">{} (z = {})</text>",
