@@ -20,7 +20,7 @@ fn node(g: &Gearbox, gear: usize) -> Node {
     }
 }
 
-/// Pitch radius [m] (the paper geometry's: from its operating radius).
+/// Pitch radius \[m\] (the paper geometry's: from its operating radius).
 fn radius(g: &Gearbox, gear: usize) -> f64 {
     let z = g.gears[gear].z as f64;
     if let Some(m) = g.gears[gear].module {
@@ -37,7 +37,7 @@ fn radius(g: &Gearbox, gear: usize) -> f64 {
         .unwrap_or(z / 2.0)
 }
 
-/// A point in the housing's plane [m], where known.
+/// A point in the housing's plane \[m\], where known.
 type At = Option<(f64, f64)>;
 
 /// The bodies' axes and the housing-fixed gears' axes.
