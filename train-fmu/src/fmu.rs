@@ -8,7 +8,7 @@
 use crate::gearbox::{self as file, Start};
 use crate::gearbox_vars::{self, GearKey, GearValue, GearboxVar, Target};
 use crate::instance::SpurGearTrain;
-use crate::variables::{Inputs, Params, VarType, GUID, N_EVENT_INDICATORS, STATES};
+use crate::variables::{Inputs, Params, Var, VarType, GUID, N_EVENT_INDICATORS, STATES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::{error, Boolean, EventUpdate, Failure, Logger, Slave, ValueReference};
 use gear_model::model::train::MAX_MESHES;
@@ -149,8 +149,9 @@ impl TrainFmu {
         vr: ValueReference,
         ty: VarType,
         train: fn(&mut SpurGearTrain, ValueReference) -> Result<X, Failure>,
-        other: impl FnOnce(&mut SpurGearTrain, &GearboxVar, GearValue) -> Result<X, Failure>,
+        other: impl FnOnce(&mut SpurGearTrain, Other, GearValue) -> Result<X, Failure>,
     ) -> Result<X, Failure> {
+        // Copied out (no allocation): outputs such as MESH.F are read after every step.
         let (v, value) = match self.resolve(vr, ty)? {
             Resolved::Train(r) => return self.on_train(|t| train(t, r)),
             Resolved::Other(v, gears) => {
@@ -158,10 +159,16 @@ impl TrainFmu {
                     Target::Gear { gear, key } => key.get(&gears[gear]),
                     _ => GearValue::Real(None),
                 };
-                (v.clone(), value)
+                (
+                    Other {
+                        target: v.target,
+                        train: v.train,
+                    },
+                    value,
+                )
             }
         };
-        self.on_train(|t| other(t, &v, value))
+        self.on_train(|t| other(t, v, value))
     }
 
     /// A set of values of one type: the train's variables go to the train in one call, a
@@ -260,6 +267,13 @@ impl TrainFmu {
         out.copy_from_slice(&full[..out.len()]);
         Ok(())
     }
+}
+
+/// A gearbox variable that is not one train variable, as a get needs it.
+#[derive(Clone, Copy)]
+struct Other {
+    target: Target,
+    train: Var,
 }
 
 /// One of the train's fmi2Set* bodies.
