@@ -152,6 +152,7 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
             c: if i == n { 2.0 } else { 0.0 },
             w_start: 100.0 / 1.5f64.powi(i as i32),
             ripple: Ripple::NONE,
+            speed_driven: false,
             planet: None,
         })
         .collect();
@@ -214,6 +215,7 @@ fn planetary_setup() -> (Train, Vec<train::State>, [(PaperRig, Vec<State>); 2]) 
         c: 0.0,
         w_start: w,
         ripple: Ripple::NONE,
+        speed_driven: false,
         planet,
     };
     let mut bodies = vec![

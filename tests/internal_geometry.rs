@@ -432,6 +432,7 @@ fn random_config(rng: &mut Rng, internal: bool, n: usize) -> Result<Config, Stri
         c: 0.0,
         w_start: 0.0,
         ripple: Ripple::NONE,
+        speed_driven: false,
         planet: None,
     };
     Ok(Config {

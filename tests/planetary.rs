@@ -33,6 +33,7 @@ fn body(j: f64) -> Body {
         c: 0.0,
         w_start: 0.0,
         ripple: Ripple::NONE,
+        speed_driven: false,
         planet: None,
     }
 }

@@ -46,6 +46,7 @@ fn one_mesh_train_mounted(p: &Params, mount_b: f64) -> TrainSpec {
                 c: 0.0,
                 w_start: p.w_A_start,
                 ripple: Ripple::NONE,
+                speed_driven: false,
                 planet: None,
             },
             Body {
@@ -53,6 +54,7 @@ fn one_mesh_train_mounted(p: &Params, mount_b: f64) -> TrainSpec {
                 c: p.c_load,
                 w_start: p.w_B_start,
                 ripple: Ripple::NONE,
+                speed_driven: false,
                 planet: None,
             },
         ],
@@ -209,6 +211,7 @@ fn reducer(shaft_k: f64) -> TrainSpec {
         c,
         w_start: w,
         ripple: Ripple::NONE,
+        speed_driven: false,
         planet: None,
     };
     let stage = |a: usize, b: usize| MeshPlace {
@@ -476,6 +479,7 @@ fn a_ripple_on_a_lone_body_does_the_work_of_its_closed_form() {
             c: 0.0,
             w_start: w0,
             ripple,
+            speed_driven: false,
             planet: None,
         }],
         angle_start: 0.0,

@@ -121,8 +121,9 @@ pub fn mesh_params(p: &Params, m: usize) -> single::Params {
 }
 
 /// The train the parameters describe (indices checked against the counts here; the tree and
-/// each mesh's parameters when the train is built).
-pub fn spec(p: &Params) -> Result<TrainSpec, String> {
+/// each mesh's parameters when the train is built). A speed-driven body starts at its input
+/// `w_in`.
+pub fn spec(p: &Params, inputs: &Inputs) -> Result<TrainSpec, String> {
     let (nb, ns, nm) = (
         p.n_bodies as usize,
         p.n_shafts as usize,
@@ -155,19 +156,33 @@ pub fn spec(p: &Params) -> Result<TrainSpec, String> {
             pin_error_t: real(p, &format!("body[{i}].pin_error_t")),
         }));
     }
-    let bodies = (1..=nb)
-        .map(|i| Body {
+    let mut bodies = Vec::with_capacity(nb);
+    for i in 1..=nb {
+        let name = format!("body[{i}].drive");
+        let speed_driven = match int(p, &name) {
+            0 => false,
+            1 => true,
+            d => return Err(format!("parameter {name} = {d}: 0 (torque) or 1 (speed)")),
+        };
+        let w_start = if speed_driven {
+            let w_in = format!("body[{i}].w_in");
+            inputs.get_real(var(&w_in)).expect("a Real input")
+        } else {
+            real(p, &format!("body[{i}].w_start"))
+        };
+        bodies.push(Body {
             planet: planets[i - 1],
             j: real(p, &format!("body[{i}].J")),
             c: real(p, &format!("body[{i}].c")),
-            w_start: real(p, &format!("body[{i}].w_start")),
+            w_start,
+            speed_driven,
             ripple: Ripple {
                 amplitude: real(p, &format!("body[{i}].tau_ripple")),
                 order: real(p, &format!("body[{i}].ripple_order")),
                 phase: real(p, &format!("body[{i}].ripple_phase")),
             },
-        })
-        .collect();
+        });
+    }
     let mut shafts = Vec::with_capacity(ns);
     for j in 1..=ns {
         shafts.push(Shaft {
@@ -202,6 +217,7 @@ pub fn spec(p: &Params) -> Result<TrainSpec, String> {
 #[derive(Clone, Debug)]
 pub struct LoadVars {
     tau: Vec<Var>,
+    w_in: Vec<Var>,
     coef: Vec<[Var; 3]>,
 }
 
@@ -211,6 +227,9 @@ impl Default for LoadVars {
             tau: (1..=MAX_BODIES)
                 .map(|k| var(&format!("body[{k}].tau")))
                 .collect(),
+            w_in: (1..=MAX_BODIES)
+                .map(|k| var(&format!("body[{k}].w_in")))
+                .collect(),
             coef: (1..=MAX_MESHES)
                 .map(|m| ["chi", "mu", "v_reg"].map(|n| var(&format!("mesh[{m}].{n}"))))
                 .collect(),
@@ -218,13 +237,15 @@ impl Default for LoadVars {
     }
 }
 
-/// The bodies' torques and the meshes' tunable coefficients.
+/// The bodies' torques and speed inputs, and the meshes' tunable coefficients.
 pub fn loads(p: &Params, i: &Inputs, v: &LoadVars) -> TrainLoads {
     let real = |x: Option<f64>| x.expect("a Real input or parameter");
-    let tau = v.tau[..p.n_bodies as usize]
-        .iter()
-        .map(|&t| real(i.get_real(t)))
-        .collect();
+    let inputs = |of: &[Var]| -> Vec<f64> {
+        of[..p.n_bodies as usize]
+            .iter()
+            .map(|&t| real(i.get_real(t)))
+            .collect()
+    };
     let coef = v.coef[..p.n_meshes as usize]
         .iter()
         .map(|&[chi, mu, v_reg]| Coefficients {
@@ -233,7 +254,11 @@ pub fn loads(p: &Params, i: &Inputs, v: &LoadVars) -> TrainLoads {
             v_reg: real(p.get_real(v_reg)),
         })
         .collect();
-    TrainLoads { tau, coef }
+    TrainLoads {
+        tau: inputs(&v.tau),
+        w_in: inputs(&v.w_in),
+        coef,
+    }
 }
 
 #[cfg(test)]

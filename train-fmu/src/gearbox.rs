@@ -30,14 +30,24 @@ const ROLLING_TOL: f64 = 1e-6;
 pub fn start_values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
     unsupported(g)?;
     let mut v = values(g)?;
-    let (mut p, inputs) = params(&v).map_err(|e| in_file_names(g, &e))?;
-    let speeds = start_speeds(g, &p).map_err(|e| in_file_names(g, &e))?;
+    let (mut p, mut inputs) = params(&v).map_err(|e| in_file_names(g, &e))?;
+    let speeds = start_speeds(g, &p, &inputs).map_err(|e| in_file_names(g, &e))?;
     for (i, w) in speeds.iter().enumerate() {
-        let name = format!("body[{}].w_start", i + 1);
-        v.push((name.clone(), Start::Real(*w)));
-        p.set_real(build::var(&name), *w);
+        // A speed-driven body's start speed is its input's start value.
+        let (key, set) = match g.bodies[i].drive {
+            Drive::Speed => (
+                "w_in",
+                inputs.set_real(build::var(&format!("body[{}].w_in", i + 1)), *w),
+            ),
+            Drive::Torque => (
+                "w_start",
+                p.set_real(build::var(&format!("body[{}].w_start", i + 1)), *w),
+            ),
+        };
+        debug_assert!(set);
+        v.push((format!("body[{}].{key}", i + 1), Start::Real(*w)));
     }
-    let spec = build::spec(&p).map_err(|e| in_file_names(g, &e))?;
+    let spec = build::spec(&p, &inputs).map_err(|e| in_file_names(g, &e))?;
     let loads = build::loads(&p, &inputs, &Default::default());
     Train::new(spec.clone(), loads.tau.clone(), None).map_err(|e| in_file_names(g, &e.message))?;
     if p.static_start {
@@ -57,14 +67,6 @@ fn unsupported(g: &Gearbox) -> Result<(), String> {
         ))
     };
     for b in &g.bodies {
-        if b.drive == Drive::Speed {
-            return not_yet(
-                "body",
-                &b.name,
-                "drive",
-                "drive = \"speed\" (gearbox-file.md §3)",
-            );
-        }
         let l = &b.lateral;
         if l.lateral || [l.k_x, l.k_y, l.c_x, l.c_y].iter().any(Option::is_some) {
             return not_yet(
@@ -115,6 +117,9 @@ pub fn values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
     for (i, b) in g.bodies.iter().enumerate() {
         let at = |k: &str| format!("body[{}].{k}", i + 1);
         put(at("J"), real(b.j));
+        if b.drive == Drive::Speed {
+            put(at("drive"), Start::Integer(1));
+        }
         // Written even when 0: the table's defaults differ from body to body.
         for (k, x) in [("m", b.m), ("c", b.c), ("tau", b.tau)] {
             put(at(k), real(x.unwrap_or(0.0)));
@@ -334,8 +339,8 @@ pub fn params(v: &[(String, Start)]) -> Result<(Params, Inputs), String> {
 /// Every body's start speed: the file's, and rigid rolling's from those for the others (at
 /// rest where no body of their part has one). Speeds that make a mesh slip or a shaft twist
 /// are refused.
-fn start_speeds(g: &Gearbox, p: &Params) -> Result<Vec<f64>, String> {
-    let spec = build::spec(p)?;
+fn start_speeds(g: &Gearbox, p: &Params, inputs: &Inputs) -> Result<Vec<f64>, String> {
+    let spec = build::spec(p, inputs)?;
     let st = spec.structure().map_err(|e| e.message)?;
     let mut rows: Vec<(String, Row)> = Vec::new();
     for m in 0..spec.meshes.len() {

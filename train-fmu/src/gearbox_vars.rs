@@ -6,7 +6,7 @@
 
 use crate::build::element;
 use crate::variables::{Causality, Var, VARIABLES};
-use gearbox::{Gear, Gearbox};
+use gearbox::{Drive, Gear, Gearbox};
 
 /// A gear's key in the file, and the pair parameter of its meshes it sets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -200,15 +200,19 @@ pub struct GearboxVar {
 }
 
 /// The outputs a gearbox FMU keeps as outputs (gearbox-file.md §2), by element.
-const BODY_OUTPUTS: [&str; 2] = ["theta", "w"];
+const BODY_OUTPUTS: [&str; 3] = ["theta", "w", "tau_drive"];
 const MESH_OUTPUTS: [&str; 5] = ["dte", "F_fwd", "F_bwd", "n_fwd", "n_bwd"];
 const SHAFT_OUTPUTS: [&str; 1] = ["tau"];
 const WHOLE_OUTPUTS: [&str; 2] = ["housing.tau", "energy_residual"];
 
 /// What the file fixes: not variables of the gearbox FMU.
-const STRUCTURE: [&str; 10] = [
-    "n_bodies", "n_shafts", "n_meshes", "carrier", "a", "b", "A", "B", "geometry", "internal",
+const STRUCTURE: [&str; 11] = [
+    "n_bodies", "n_shafts", "n_meshes", "carrier", "drive", "a", "b", "A", "B", "geometry",
+    "internal",
 ];
+/// A speed-driven body's own variables, and what it does not use.
+const SPEED_ONLY: [&str; 2] = ["w_in", "tau_drive"];
+const TORQUE_ONLY: [&str; 1] = ["w_start"];
 /// A planet's own body parameters.
 const PLANET_ONLY: [&str; 4] = ["orbit_angle", "m", "pin_error_r", "pin_error_t"];
 
@@ -251,7 +255,10 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
             }
             Some(("body", i, f)) if i <= g.bodies.len() => {
                 let b = &g.bodies[i - 1];
+                let speed = b.drive == Drive::Speed;
                 let skip = STRUCTURE.contains(&f)
+                    || (SPEED_ONLY.contains(&f) && !speed)
+                    || (TORQUE_ONLY.contains(&f) && speed)
                     || (PLANET_ONLY.contains(&f) && b.orbit.is_none())
                     || (f == "angle_start" && i != 1);
                 if !skip {

@@ -72,7 +72,7 @@ impl Default for Cache {
         };
         Cache {
             per_body: group(train::MAX_BODIES, &|s| match s {
-                Source::BodyTheta(i) | Source::BodyW(i) => Some(i),
+                Source::BodyTheta(i) | Source::BodyW(i) | Source::BodyDrive(i) => Some(i),
                 _ => None,
             }),
             per_shaft: group(train::MAX_SHAFTS, &|s| match s {
@@ -114,6 +114,8 @@ impl Cache {
 enum Source {
     BodyTheta(usize),
     BodyW(usize),
+    /// The torque of a speed drive (0 for a torque-driven body).
+    BodyDrive(usize),
     ShaftTau(usize),
     ShaftTwist(usize),
     /// Mesh m's output of the single mesh's name.
@@ -134,6 +136,7 @@ fn sources() -> Vec<(Var, Source)> {
             let s = match element(v.name) {
                 Some(("body", i, "theta")) => Source::BodyTheta(i - 1),
                 Some(("body", i, "w")) => Source::BodyW(i - 1),
+                Some(("body", i, "tau_drive")) => Source::BodyDrive(i - 1),
                 Some(("shaft", j, "tau")) => Source::ShaftTau(j - 1),
                 Some(("shaft", j, "twist")) => Source::ShaftTwist(j - 1),
                 Some(("mesh", m, name)) => Source::Mesh(
@@ -161,7 +164,7 @@ fn fresh_simulation(
     solved: Option<&StartDeflections>,
 ) -> Result<TrainSimulation, String> {
     build::validate(&s.params)?;
-    let mut spec = build::spec(&s.params)?;
+    let mut spec = build::spec(&s.params, &s.inputs)?;
     let loads = build::loads(&s.params, &s.inputs, vars);
     let deflections = match (s.params.static_start, solved) {
         (false, _) => None,
@@ -234,6 +237,9 @@ fn write_outputs(
         match s {
             Source::BodyTheta(i) if i < n_bodies => put(o, v, b.theta[i]),
             Source::BodyW(i) if i < n_bodies => put(o, v, b.w[i]),
+            Source::BodyDrive(i) if i < n_bodies && train.is_speed_driven(i) => {
+                put(o, v, train.drive_torque(i, y).map_err(|e| e.to_string())?)
+            }
             Source::ShaftTau(j) if j < n_shafts => put(o, v, train.shaft_torque(j, y)),
             Source::ShaftTwist(j) if j < n_shafts => put(o, v, train.shaft_twist(j, y)),
             Source::Mesh(m, sv) if m < per_mesh.len() => {
@@ -279,8 +285,9 @@ impl Rig for TrainRig {
     const LOG_CATEGORIES: &'static [&'static str] = LOG_CATEGORIES;
     const STATE_MAGIC: [u8; 8] = *b"SGTSTATE";
     /// 2 since the driver saves the margins of the event functions in use, packed; 3 since
-    /// the train keeps the deflections of its static start.
-    const STATE_FORMAT_VERSION: u32 = 3;
+    /// the train keeps the deflections of its static start; 4 since its loads hold the speed
+    /// inputs.
+    const STATE_FORMAT_VERSION: u32 = 4;
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
     const STATES: &'static [(Var, Var)] = STATES;
@@ -510,6 +517,7 @@ fn restore_train(t: &mut Train, f: &Train) -> Result<Vec<f64>, String> {
     if t.meshes.len() != f.meshes.len()
         || t.stats.is_some() != f.stats.is_some()
         || t.loads.tau.len() != f.loads.tau.len()
+        || t.loads.w_in.len() != f.loads.w_in.len()
         || t.loads.coef.len() != f.loads.coef.len()
     {
         return Err("the state does not match its parameters".into());
@@ -524,6 +532,7 @@ fn restore_train(t: &mut Train, f: &Train) -> Result<Vec<f64>, String> {
     let mut values = vec![t.e_gate, t.e_start];
     values.extend(t.meshes.iter().flat_map(|m| m.sigma));
     values.extend_from_slice(&t.loads.tau);
+    values.extend_from_slice(&t.loads.w_in);
     Ok(values)
 }
 

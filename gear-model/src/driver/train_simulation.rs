@@ -137,8 +137,8 @@ impl TrainSimulation {
         if loads != self.train.loads {
             self.observe_to_now();
             self.driver.invalidate();
-            let y = self.driver.state();
-            self.train.set_loads(loads, &y);
+            let mut y = self.driver.state();
+            self.train.set_loads(loads, &mut y);
             self.driver.y_start = y;
             self.driver.tol = tolerance(&self.train, self.driver.tol.rtol);
         }

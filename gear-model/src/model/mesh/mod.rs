@@ -434,13 +434,22 @@ impl GearMesh {
         if self.rigid() {
             return;
         }
-        if self.damped() && !was_damped {
-            for f in [Flank::Forward, Flank::Backward] {
-                self.set_sign(EventFn::Rel(f), y);
-            }
-            for k in 0..SLOTS {
-                self.set_sign(EventFn::PairRel(k), y);
-            }
+        if !was_damped {
+            self.rates_jumped(y);
+        }
+    }
+
+    /// The signs of the functions that read the rates, from y after the rates jumped (a
+    /// speed-driven body's new input) or damping came on.
+    pub fn rates_jumped(&mut self, y: &Kin) {
+        if self.rigid() || !self.damped() {
+            return;
+        }
+        for f in [Flank::Forward, Flank::Backward] {
+            self.set_sign(EventFn::Rel(f), y);
+        }
+        for k in 0..SLOTS {
+            self.set_sign(EventFn::PairRel(k), y);
         }
     }
 }

@@ -185,22 +185,24 @@ impl Coordinates {
         );
         // Meshes before shafts, each group in the order above.
         edges.sort_by_key(|e| matches!(e, Edge::Shaft(_)));
-        let mut candidates: Vec<(Coord, Row, f64)> = edges
-            .iter()
-            .map(|&e| match e {
-                Edge::Mesh(m) => (
-                    Coord::Edge(e),
-                    mesh_row(spec, st, &lay.geo[m], m),
-                    start.dte0[m],
-                ),
-                Edge::Shaft(j) => (
-                    Coord::Edge(e),
-                    shaft_row(spec, j),
-                    spec.shafts[j].twist_start,
-                ),
-            })
-            .collect();
-        candidates.extend((0..n).map(|i| (Coord::Body(i), Row(vec![(i, 1.0)]), 0.0)));
+        // A speed-driven body's angle is a coordinate of its own, first: its rate is the
+        // input's, and the rest follow the dynamics.
+        let driven = |i: &usize| spec.bodies[*i].speed_driven;
+        let body = |i: usize| (Coord::Body(i), Row(vec![(i, 1.0)]), 0.0);
+        let mut candidates: Vec<(Coord, Row, f64)> = (0..n).filter(driven).map(body).collect();
+        candidates.extend(edges.iter().map(|&e| match e {
+            Edge::Mesh(m) => (
+                Coord::Edge(e),
+                mesh_row(spec, st, &lay.geo[m], m),
+                start.dte0[m],
+            ),
+            Edge::Shaft(j) => (
+                Coord::Edge(e),
+                shaft_row(spec, j),
+                spec.shafts[j].twist_start,
+            ),
+        }));
+        candidates.extend((0..n).filter(|i| !driven(i)).map(body));
         // Greedy independence by Gram-Schmidt (twice, for rounding): a row is kept when what
         // it adds is more than 1e-9 of its length (rows mix radii of 1e-3..1 m and ones).
         let mut basis: Vec<Vec<f64>> = Vec::new();
@@ -279,6 +281,13 @@ impl Coordinates {
                             }
                             _ => {
                                 if l.abs() > 1e-9 * scale {
+                                    if let Coord::Body(i) = c.coords[k] {
+                                        return Err(ModelError::new(format!(
+                                            "mesh[{}]: the speed of {} is driven, and this mesh closes a loop through it: two speed drives joined by gear meshes alone would force the teeth apart or into each other; join them through a shaft",
+                                            m + 1,
+                                            body_name(i)
+                                        )));
+                                    }
                                     return Err(ModelError::new(format!(
                                         "mesh[{}]: its dte depends on a coordinate other than the meshes' ({l:.6e} m per unit): an inconsistent loop",
                                         m + 1

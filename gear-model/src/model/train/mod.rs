@@ -47,10 +47,13 @@ pub const fn coord_index(k: usize) -> usize {
     2 + 2 * k
 }
 
-/// What a master may change between steps: the bodies' torques and the meshes' coefficients.
+/// What a master may change between steps: the bodies' torques, the speed-driven bodies'
+/// speeds and the meshes' coefficients.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainLoads {
     pub tau: Vec<f64>,
+    /// Each body's speed input \[rad/s\], read for the speed-driven ones.
+    pub w_in: Vec<f64>,
     pub coef: Vec<mesh::Coefficients>,
 }
 
@@ -94,6 +97,8 @@ pub struct TrainConfig {
     inv_j: Vec<f64>,
     /// Where each mesh's event functions start in the packed margins, and their total.
     event_start: Vec<usize>,
+    /// The speed-driven bodies.
+    driven: Vec<usize>,
 }
 
 /// The slots of the full capacity's bodies: one per body and the housing's.
@@ -176,6 +181,7 @@ impl Default for TrainConfig {
             j_eff: vec![],
             inv_j: vec![],
             event_start: vec![0],
+            driven: vec![],
             housing: 0,
             shaft_ends: vec![],
         }
@@ -291,7 +297,10 @@ impl Train {
                 Some(*n)
             }))
             .collect();
+        let driven = (0..n).filter(|&i| spec.bodies[i].speed_driven).collect();
+        let w_in = spec.bodies.iter().map(|b| b.w_start).collect();
         let cfg = TrainConfig {
+            driven,
             spec,
             structure: st,
             coords,
@@ -308,7 +317,7 @@ impl Train {
         let mut train = Train {
             cfg: Arc::new(cfg),
             meshes,
-            loads: TrainLoads { tau, coef },
+            loads: TrainLoads { tau, w_in, coef },
             e_gate: 0.0,
             n_events: 0,
             e_start: 0.0,
@@ -558,7 +567,13 @@ impl Train {
         for (a, (tq, inv_j)) in acc.iter_mut().zip(t.on.iter().zip(&c.inv_j)).take(n) {
             *a = tq * inv_j;
         }
-        dy[W_EXT] = t.p_ext;
+        // A drive holds its body's speed: its torque cancels the others' there.
+        let mut p_ext = t.p_ext;
+        for &i in &c.driven {
+            p_ext -= t.on[i] * b.w[i];
+            acc[i] = 0.0;
+        }
+        dy[W_EXT] = p_ext;
         dy[W_LOSS] = t.p_loss;
         for (k, row) in c.coords.rows.iter().enumerate() {
             let i = coord_index(k);
@@ -588,14 +603,48 @@ impl Train {
         self.check_state(y)
     }
 
-    /// New torques and coefficients from a master.
-    pub fn set_loads(&mut self, loads: TrainLoads, y: &State) {
+    /// New torques, speeds and coefficients from a master. A speed-driven body whose input
+    /// changed jumps to it, every other body keeping its speed (the drive's impulse reaches
+    /// only its own body: shafts and meshes are compliant); the jump's kinetic energy is work
+    /// of the drive.
+    pub fn set_loads(&mut self, loads: TrainLoads, y: &mut State) {
         let b = self.bodies(y);
         for m in 0..self.meshes.len() {
             let k = self.kin(m, y, &b);
             self.meshes[m].set_coefficients(loads.coef[m], &k);
         }
+        let c = self.cfg.clone();
+        if c.driven.iter().any(|&i| b.w[i] != loads.w_in[i]) {
+            let mut w = b.w;
+            for &i in &c.driven {
+                w[i] = loads.w_in[i];
+            }
+            for (k, row) in c.coords.rows.iter().enumerate() {
+                y[coord_index(k) + 1] = row.dot(&w);
+            }
+            let after = self.bodies(y);
+            y[W_EXT] += self.kinetic_energy(&after) - self.kinetic_energy(&b);
+            for m in 0..self.meshes.len() {
+                let k = self.kin(m, y, &after);
+                self.meshes[m].rates_jumped(&k);
+            }
+        }
         self.loads = loads;
+    }
+
+    /// The torque the drive of speed-driven body i applies at y, forward positive: what
+    /// holds its speed against every other torque on it.
+    pub fn drive_torque(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
+        by_slots!(self.drive_torque_in(i, y))
+    }
+
+    fn drive_torque_in<const N: usize>(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
+        Ok(-self.torques(y, &self.bodies_in::<N>(y))?.on[i])
+    }
+
+    /// Whether body i's speed is an input.
+    pub fn is_speed_driven(&self, i: usize) -> bool {
+        self.cfg.driven.contains(&i)
     }
 
     /// Bound on the highest natural frequency \[rad/s\] (the trace of M^-1 K bounds its

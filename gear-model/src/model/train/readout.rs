@@ -4,7 +4,7 @@
 use super::*;
 
 impl Train {
-    fn kinetic_energy(&self, b: &Bodies) -> f64 {
+    pub(super) fn kinetic_energy(&self, b: &Bodies) -> f64 {
         let c = &*self.cfg;
         (0..c.j_eff.len())
             .map(|i| 0.5 * c.j_eff[i] * b.w[i] * b.w[i])

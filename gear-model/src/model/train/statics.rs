@@ -114,8 +114,8 @@ impl Balance<'_> {
 
     /// The second derivatives of the coordinates' edges at the start.
     fn residual(&self, x: &[f64]) -> Result<DVector<f64>, ModelError> {
-        let (mut train, y) = Train::new(self.with(x), self.loads.tau.clone(), None)?;
-        train.set_loads(self.loads.clone(), &y);
+        let (mut train, mut y) = Train::new(self.with(x), self.loads.tau.clone(), None)?;
+        train.set_loads(self.loads.clone(), &mut y);
         let mut dy = State::zeros();
         train
             .rhs(&y, &mut dy)

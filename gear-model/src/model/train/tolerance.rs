@@ -9,6 +9,7 @@ impl Train {
     /// T x, the free coordinates accelerate as (T^T J T)_FF a = (T^T tau)_F, and an edge's
     /// coordinate needs the generalized force (T^T J T)_EF a - (T^T tau)_E: a mesh's normal
     /// force, a shaft's torque. A loop's meshes share the load; this books it on the steps.
+    /// A speed-driven body's coordinate does not accelerate: its drive takes the rest.
     fn static_loads(&self) -> Vec<f64> {
         let c = &*self.cfg;
         let t = &c.coords.t;
@@ -18,14 +19,18 @@ impl Train {
         let tau = DVector::from_iterator(n, self.loads.tau.iter().copied());
         let q = t.transpose() * tau;
         let free: Vec<usize> = (0..n)
-            .filter(|&k| matches!(c.coords.coords[k], Coord::Body(_)))
+            .filter(|&k| matches!(c.coords.coords[k], Coord::Body(i) if !c.driven.contains(&i)))
             .collect();
         let mff = DMatrix::from_fn(free.len(), free.len(), |r, s| m[(free[r], free[s])]);
         let qf = DVector::from_iterator(free.len(), free.iter().map(|&k| q[k]));
-        let a = mff
-            .lu()
-            .solve(&qf)
-            .unwrap_or_else(|| DVector::zeros(free.len()));
+        // Every body speed-driven (or held by them): nothing accelerates.
+        let a = match free.len() {
+            0 => DVector::zeros(0),
+            _ => mff
+                .lu()
+                .solve(&qf)
+                .unwrap_or_else(|| DVector::zeros(free.len())),
+        };
         (0..n)
             .map(|k| {
                 let need: f64 = free

@@ -25,6 +25,9 @@ pub struct Body {
     pub ripple: Ripple,
     /// The carrier whose frame holds the body's axis; None: the housing's.
     pub planet: Option<Planet>,
+    /// Its speed is an input (`TrainLoads::w_in`, held over a step) and the drive's torque an
+    /// output (gearbox-file.md §3); its start speed is `w_start`.
+    pub speed_driven: bool,
 }
 
 /// A planet's place on its carrier (planetary.md §3).
@@ -521,6 +524,7 @@ mod tests {
             c: 0.0,
             w_start: 0.0,
             ripple: Ripple::NONE,
+            speed_driven: false,
             planet: None,
         }
     }
