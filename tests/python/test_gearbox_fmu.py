@@ -225,7 +225,8 @@ def test_the_spec_example_packages_and_runs(tmp_path):
     r = fmpy.simulate_fmu(str(fmu), stop_time=period + 10 * h, output_interval=h, input=signal,
                           output=["generator.w", "generator.tau_drive", "stage1.carrier.w"])
     first = r["time"] <= period * (1 + 1e-9)
-    assert np.all(r["generator.w"][first] == w_gen)
+    # Held to the rounding of the map from the coordinates to the bodies (a few ulp).
+    assert np.max(np.abs(r["generator.w"][first] - w_gen)) <= 1e-13 * w_gen
     mean = np.mean(r["generator.tau_drive"][first][1:])
     assert abs(mean / (-t_c * w_c / w_gen) - 1) <= 0.01, mean
-    assert r["generator.w"][-1] == 19.0
+    assert abs(r["generator.w"][-1] - 19.0) <= 1e-13 * 19.0
