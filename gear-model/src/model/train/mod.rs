@@ -613,8 +613,13 @@ impl Train {
             let k = self.kin(m, y, &b);
             self.meshes[m].set_coefficients(loads.coef[m], &k);
         }
+        // Against the input before, not the body's speed from the state, which carries a few
+        // ulp of the map from the coordinates: an unchanged input moves nothing.
         let c = self.cfg.clone();
-        if c.driven.iter().any(|&i| b.w[i] != loads.w_in[i]) {
+        if c.driven
+            .iter()
+            .any(|&i| self.loads.w_in[i] != loads.w_in[i])
+        {
             let mut w = b.w;
             for &i in &c.driven {
                 w[i] = loads.w_in[i];
