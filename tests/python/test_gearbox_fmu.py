@@ -230,3 +230,25 @@ def test_the_spec_example_packages_and_runs(tmp_path):
     mean = np.mean(r["generator.tau_drive"][first][1:])
     assert abs(mean / (-t_c * w_c / w_gen) - 1) <= 0.01, mean
     assert abs(r["generator.w"][-1] - 19.0) <= 1e-13 * 19.0
+
+
+def test_damping_ratio_shows_chi_as_a_calculated_parameter(tmp_path):
+    """A mesh with `damping_ratio` declares its chi as a calculated parameter (no start value),
+    which FMPy validates in FMI 2.0 and 3.0 and reads after initialization; a mesh with `chi`
+    keeps it a tunable parameter."""
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    text = (ROOT / "scenes" / "train" / "gearbox" / "two-stage.toml").read_text()
+    path = tmp_path / "two-stage-ratio.toml"
+    path.write_text(text.replace("center_angle = 0.6\n", "center_angle = 0.6\ndamping_ratio = 0.05\n"))
+    fmu = package(path, tmp_path)
+    for f in (fmu, fmu.with_name(fmu.stem + "-fmi3.fmu")):
+        assert validate_fmu(str(f)) == [], f
+    md = fmpy.read_model_description(str(fmu))
+    by_name = {v.name: v for v in md.modelVariables}
+    chi = by_name["pinion2_output.chi"]
+    assert chi.causality == "calculatedParameter" and chi.start is None
+    assert by_name["motor_wheel1.chi"].causality == "parameter"
+    r = fmpy.simulate_fmu(str(fmu), stop_time=1e-3, output=["pinion2_output.chi"])
+    assert np.all(r["pinion2_output.chi"] > 0)

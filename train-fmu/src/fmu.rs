@@ -8,7 +8,7 @@
 use crate::gearbox::{self as file, Start};
 use crate::gearbox_vars::{self, GearKey, GearValue, GearboxVar, Target};
 use crate::instance::SpurGearTrain;
-use crate::variables::{Inputs, Params, Var, VarType, GUID, N_EVENT_INDICATORS, STATES};
+use crate::variables::{Causality, Inputs, Params, Var, VarType, GUID, N_EVENT_INDICATORS, STATES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::{error, Boolean, EventUpdate, Failure, Logger, Slave, ValueReference};
 use gear_model::model::train::MAX_MESHES;
@@ -123,6 +123,13 @@ impl TrainFmu {
 
     /// The train's value reference of a gearbox variable of type `ty` (or the gearbox
     /// variable itself, for a target that is not one train variable).
+    /// The gearbox variable at vr if it is a calculated parameter.
+    fn calculated(&self, vr: ValueReference) -> Option<&GearboxVar> {
+        let o = self.gearbox.as_ref()?;
+        let v = o.fmu.vars.get((vr as usize).checked_sub(1)?)?;
+        (v.causality == Causality::CalculatedParameter).then_some(v)
+    }
+
     fn resolve(&self, vr: ValueReference, ty: VarType) -> Result<Resolved<'_>, Failure> {
         let Some(o) = &self.gearbox else {
             return Ok(Resolved::Train(vr));
@@ -189,6 +196,12 @@ impl TrainFmu {
         let mut direct = (Vec::new(), Vec::new());
         let mut gear_sets = Vec::new();
         for (&vr, x) in vrs.iter().zip(values) {
+            if let Some(v) = self.calculated(vr) {
+                return Err(error(format!(
+                    "{} is a calculated parameter (from the gearbox file's damping_ratio): it cannot be set",
+                    v.name
+                )));
+            }
             match self.resolve(vr, ty)? {
                 Resolved::Train(r) => {
                     direct.0.push(r);

@@ -6,9 +6,11 @@
 use crate::build;
 use crate::variables::{Inputs, Params, Var};
 use gear_model::model::geometry::Geometry;
+use gear_model::model::train::damping::chi_for_ratio;
 use gear_model::model::train::kinematics::{mesh_row, shaft_row, Row};
 use gear_model::model::train::statics::static_start;
 use gear_model::model::train::Train;
+use gear_model::model::ModelError;
 use gearbox::{Damping, Drive, Gear, Gearbox, Mesh, Support};
 use nalgebra::{DMatrix, DVector};
 
@@ -50,8 +52,24 @@ pub fn start_values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
     let spec = build::spec(&p, &inputs).map_err(|e| in_file_names(g, &e))?;
     let loads = build::loads(&p, &inputs, &Default::default());
     Train::new(spec.clone(), loads.tau.clone(), None).map_err(|e| in_file_names(g, &e.message))?;
-    if p.static_start {
-        static_start(spec, &loads).map_err(|e| in_file_names(g, &e.message))?;
+    let ratios: Vec<(usize, f64)> = (g.meshes.iter().enumerate())
+        .filter_map(|(m, mesh)| match mesh.damping {
+            Some(Damping::Ratio(zeta)) => Some((m, zeta)),
+            _ => None,
+        })
+        .collect();
+    if p.static_start || !ratios.is_empty() {
+        let balanced = static_start(spec, &loads).map_err(|e| in_file_names(g, &e.message))?;
+        // damping_ratio sets chi at the static load, whether or not the run starts there.
+        if !ratios.is_empty() {
+            let at = |e: ModelError| in_file_names(g, &format!("damping_ratio: {}", e.message));
+            let (mut train, mut y) = Train::new(balanced, loads.tau.clone(), None).map_err(at)?;
+            train.set_loads(loads, &mut y);
+            for (m, zeta) in ratios {
+                let chi = chi_for_ratio(&train, &y, m, zeta).map_err(at)?;
+                v.push((format!("mesh[{}].chi", m + 1), Start::Real(chi)));
+            }
+        }
     }
     Ok(v)
 }
@@ -78,14 +96,6 @@ fn unsupported(g: &Gearbox) -> Result<(), String> {
         }
     }
     for m in &g.meshes {
-        if let Some(Damping::Ratio(_)) = m.damping {
-            return not_yet(
-                "mesh",
-                &m.name,
-                "damping_ratio",
-                "damping_ratio (gearbox-file.md §3)",
-            );
-        }
         if m.k_lumped.is_some() || m.c_lumped.is_some() || m.k_lumped_varies.is_some() {
             return not_yet(
                 "mesh",

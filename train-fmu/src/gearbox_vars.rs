@@ -6,7 +6,7 @@
 
 use crate::build::element;
 use crate::variables::{Causality, Var, VARIABLES};
-use gearbox::{Drive, Gear, Gearbox};
+use gearbox::{Damping, Drive, Gear, Gearbox};
 
 /// A gear's key in the file, and the pair parameter of its meshes it sets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -276,7 +276,14 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
                     || info.geometry.is_some_and(|x| x != geometry);
                 if !skip {
                     let name = format!("{}.{f}", g.meshes[m - 1].name);
-                    meshes[m - 1].push(v(name, MESH_OUTPUTS.contains(&f)));
+                    let mut var = v(name, MESH_OUTPUTS.contains(&f));
+                    if let (Some(Damping::Ratio(zeta)), "chi") = (g.meshes[m - 1].damping, f) {
+                        var.causality = Causality::CalculatedParameter;
+                        var.description = Some(format!(
+                            "Hunt-Crossley damping coefficient, calculated from the file's damping_ratio = {zeta}: the mesh's own mode has that fraction of critical damping at its mean stiffness under the static load (gearbox-file.md section 3) [s/m]"
+                        ));
+                    }
+                    meshes[m - 1].push(var);
                 }
                 if f == "F_bwd" {
                     meshes[m - 1].push(GearboxVar {

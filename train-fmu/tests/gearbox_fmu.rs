@@ -466,3 +466,64 @@ mod fuzz {
         }
     }
 }
+
+/// A mesh with `damping_ratio` shows its chi as a calculated parameter: read, with the value
+/// the file's ratio gives (train-fmu/tests/damping_ratio.rs checks what it means), and never
+/// set; a mesh with `chi` keeps it tunable.
+#[test]
+fn damping_ratio_shows_chi_as_a_calculated_parameter() {
+    let path = root().join("scenes/train/gearbox/two-stage.toml");
+    let text = std::fs::read_to_string(path).unwrap().replace(
+        "center_angle = 0.6\n",
+        "center_angle = 0.6\ndamping_ratio = 0.05\n",
+    );
+    let mut a = instantiate(&text, "ratio").unwrap_or_else(|e| panic!("{e}"));
+    let fmu = a.gearbox_fmu().unwrap().clone();
+    let want = start_values(&fmu.gearbox).unwrap();
+    let mut seen = 0;
+    for (k, v) in fmu.vars.iter().enumerate() {
+        if !v.name.ends_with(".chi") {
+            continue;
+        }
+        let vr = k as u32 + 1;
+        let m = fmu
+            .gearbox
+            .meshes
+            .iter()
+            .position(|m| v.name == format!("{}.chi", m.name));
+        let ratio = matches!(
+            fmu.gearbox.meshes[m.unwrap()].damping,
+            Some(gearbox::Damping::Ratio(_))
+        );
+        if !ratio {
+            assert_eq!(v.causality, Causality::Parameter, "{}", v.name);
+            continue;
+        }
+        seen += 1;
+        assert_eq!(v.causality, Causality::CalculatedParameter, "{}", v.name);
+        let chi = a.get_real(vr).unwrap();
+        let given = want
+            .iter()
+            .find(|(n, _)| *n == format!("mesh[{}].chi", m.unwrap() + 1))
+            .map(|(_, s)| s.clone());
+        assert_eq!(
+            given,
+            Some(spur_gear_train::gearbox::Start::Real(chi)),
+            "{}",
+            v.name
+        );
+        assert!(chi > 0.0 && chi.is_finite());
+        let e = a.set_real(&[vr], &[1.0], false).unwrap_err();
+        assert!(
+            e.message.contains(&v.name) && e.message.contains("calculated"),
+            "{}",
+            e.message
+        );
+        assert_eq!(
+            a.get_real(vr).unwrap(),
+            chi,
+            "a refused set changes nothing"
+        );
+    }
+    assert!(seen > 0, "a mesh with damping_ratio");
+}

@@ -99,17 +99,22 @@ fn table(fmu: &Arc<GearboxFmu>, text: &str, train: &Table) -> Table {
             };
             value.unwrap_or_else(|e| panic!("{}: {}", v.name, e.message))
         });
+        let calculated = v.causality == Causality::CalculatedParameter;
         let mut var = Var {
             name: v.name.clone(),
             vr,
             causality: causality.into(),
-            start: start.or_else(|| base.start.clone()),
+            // A calculated parameter has no start value (initial = "calculated").
+            start: start.or_else(|| base.start.clone().filter(|_| !calculated)),
             description: v
                 .description
                 .clone()
                 .unwrap_or_else(|| base.description.clone()),
             ..base.clone()
         };
+        if calculated {
+            var.variability = "fixed".into();
+        }
         if let Target::Gear {
             key: GearKey::TipDiameter,
             ..

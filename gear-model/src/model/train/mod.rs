@@ -9,6 +9,7 @@
 //! its dte from them: every dte keeps full precision however far the bodies turn. The
 //! bodies' angles and speeds follow by the inverse linear map.
 
+pub mod damping;
 pub mod kinematics;
 pub mod placement;
 pub mod statics;
