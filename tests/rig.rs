@@ -247,3 +247,74 @@ fn slider_static_balance() {
         x * sin_a
     );
 }
+
+/// The single mesh's static start (parameter `static_start`, gearbox-file.md §3) on the
+/// damped paper scene (scenes/damped.toml): the dte's acceleration vanishes at t = 0, and the
+/// dte_start found is the scene's hand-written running start, which the independent reference
+/// solved (gearmesh_ref.quasi_static_dte: the rigid rolling's line force shared by the two
+/// pairs in contact, Johnson's law solved by fixed point). Both solves stop at rounding: 1e-9
+/// of the deflection leaves room for it. Refused with rigid contact and with the slider.
+#[test]
+fn the_static_start_is_the_reference_running_start() {
+    use spur_gear_mesh::model::paper_rig::statics::static_dte_start;
+    use spur_gear_mesh::model::paper_rig::{PaperRig, DDTE};
+    let p = Params {
+        c_load: 2.0,
+        chi: 10.0,
+        w_A_start: 100.0,
+        w_B_start: 100.0 / 1.5,
+        ..Params::default()
+    };
+    let i = Inputs {
+        tau_A: 100.0,
+        ..Inputs::default()
+    };
+    let d = static_dte_start(&p, &i).unwrap();
+    let want = 5.592370531367129e-07;
+    assert!(rel(d, want) <= 1e-9, "{d} against {want}");
+    let q = Params {
+        dte_start: d,
+        ..p.clone()
+    };
+    let (rig, y) = PaperRig::new(&q, &i).unwrap();
+    let mut dy = Default::default();
+    rig.rhs(&y, &mut dy).unwrap();
+    let (mut lo, mut hi) = (q.clone(), q.clone());
+    lo.dte_start = 0.9 * d;
+    hi.dte_start = 1.1 * d;
+    let acc = |p: &Params| {
+        let (rig, y) = PaperRig::new(p, &i).unwrap();
+        let mut dy: spur_gear_mesh::model::paper_rig::State = Default::default();
+        rig.rhs(&y, &mut dy).unwrap();
+        dy[DDTE]
+    };
+    // Against what a 10 % error in the deflection would leave.
+    assert!(
+        dy[DDTE].abs() <= 1e-8 * (acc(&lo) - acc(&hi)).abs(),
+        "{}",
+        dy[DDTE]
+    );
+    for (key, bad) in [
+        (
+            "contact_model",
+            Params {
+                contact_model: 2,
+                ..p.clone()
+            },
+        ),
+        (
+            "slider",
+            Params {
+                slider_stiffness: 1e6,
+                ..p.clone()
+            },
+        ),
+    ] {
+        let e = static_dte_start(&bad, &i).unwrap_err();
+        assert!(
+            e.message.starts_with("parameter static_start = true"),
+            "{key}: {}",
+            e.message
+        );
+    }
+}

@@ -7,17 +7,18 @@
 //! gives the same bits. A state from another format version or another build of the model
 //! (GUID), or a truncated, corrupted or inconsistent one, is rejected with a reason.
 
-use super::instance::Snapshot;
+use super::instance::{started_at, Snapshot};
 use crate::driver::exchange::Exchange;
 use crate::driver::simulation::Simulation;
 use crate::driver::Method;
 use crate::variables::{Causality, VARIABLES};
 use fmi2_slave::fmu_state::{Reader, Writer};
 
-/// The version of the payload below (the envelope's format version): 8 since the driver saves
-/// the margins of the event functions in use (7: a Model Exchange instance saves its point;
-/// 6: postcard; 1-5 were fields written one by one).
-pub const FORMAT_VERSION: u32 = 8;
+/// The version of the payload below (the envelope's format version): 9 since the rig keeps the
+/// dte_start of its static start; 8 since the driver saves the margins of the event functions
+/// in use (7: a Model Exchange instance saves its point; 6: postcard; 1-5 were fields written
+/// one by one).
+pub const FORMAT_VERSION: u32 = 9;
 
 /// The checksum only proves the bytes arrived intact; a state edited with a recomputed checksum
 /// must not bring NaN, infinity or an invalid tolerance into the instance.
@@ -90,7 +91,8 @@ fn check_values(s: &Simulation) -> Result<(), String> {
 /// The configuration a state leaves out, built again from its parameters, and the checks a
 /// checksum cannot make.
 fn rebuild(sim: &mut Simulation, s: &Snapshot) -> Result<(), String> {
-    let fresh = Simulation::new(&s.params, &s.inputs, s.start_time, s.params.rel_tol)
+    let p = started_at(&s.params, sim.rig.static_dte);
+    let fresh = Simulation::new(&p, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
     if sim.rig.stats.is_some() != fresh.rig.stats.is_some() {
         return Err("the statistics in the state do not match the parameter statistics".into());
@@ -161,7 +163,8 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
 
 /// `rebuild` for a Model Exchange run: its mesh's configuration, and finite values.
 fn rebuild_exchange(ex: &mut Exchange, s: &Snapshot) -> Result<(), String> {
-    let fresh = Simulation::new(&s.params, &s.inputs, s.start_time, s.params.rel_tol)
+    let p = started_at(&s.params, ex.rig.static_dte);
+    let fresh = Simulation::new(&p, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
     if ex.rig.stats.is_some() != fresh.rig.stats.is_some() {
         return Err("the statistics in the state do not match the parameter statistics".into());
@@ -272,7 +275,7 @@ mod tests {
         flipped[k] ^= 0x10;
         assert!(decode(&flipped).unwrap_err().contains("checksum"));
         let mut other = bytes.clone();
-        other[8] = 9;
+        other[8] = 10;
         assert!(decode(&other).unwrap_err().contains("version"));
         let mut guid = bytes.clone();
         guid[18] ^= 1;
@@ -283,15 +286,15 @@ mod tests {
     }
 
     /// A state written by an older build (format version 5: fields written one by one; 6: no
-    /// Model Exchange run; 7: margins at the capacity's size) is refused by its version before
-    /// anything of it is read, with both versions named.
+    /// Model Exchange run; 7: margins at the capacity's size; 8: no static start kept) is
+    /// refused by its version before anything of it is read, with both versions named.
     #[test]
     fn a_state_of_an_older_format_is_refused_by_its_version() {
-        for old in [5u32, 6, 7] {
+        for old in [5u32, 6, 7, 8] {
             let mut bytes = encode(FmiState::StepComplete, &running(1));
             bytes[8..12].copy_from_slice(&old.to_le_bytes());
             let e = decode(&bytes).unwrap_err();
-            let (a, b) = (format!("state format version {old}"), "reads version 8");
+            let (a, b) = (format!("state format version {old}"), "reads version 9");
             assert!(e.contains(&a) && e.contains(b), "{e}");
         }
     }

@@ -10,6 +10,7 @@ use super::{fmu_state, outputs};
 use crate::driver::simulation::Simulation;
 use crate::driver::Stats;
 use crate::model::mesh::LawOutOfRange;
+use crate::model::paper_rig::statics::static_dte_start;
 use crate::model::paper_rig::Ramp;
 use crate::model::Loads;
 use crate::model::{PaperRig, State};
@@ -86,8 +87,14 @@ impl Rig for MeshRig {
     }
 
     fn build(s: &Snapshot, rel_tol: f64, _: &()) -> Result<Simulation, String> {
+        let solved = match s.params.static_start {
+            true => Some(static_dte_start(&s.params, &s.inputs).map_err(|e| e.message)?),
+            false => None,
+        };
+        let p = started_at(&s.params, solved);
         let mut sim =
-            Simulation::new(&s.params, &s.inputs, s.start_time, rel_tol).map_err(|e| e.message)?;
+            Simulation::new(&p, &s.inputs, s.start_time, rel_tol).map_err(|e| e.message)?;
+        sim.rig.static_dte = solved;
         if let Some(stop) = s.stop_time {
             sim.set_stop_time(stop);
         }
@@ -216,5 +223,13 @@ impl Rig for MeshRig {
 
     fn decode(r: &mut Reader) -> Result<Snapshot, String> {
         fmu_state::read(r)
+    }
+}
+
+/// The parameters with the dte_start a static start solved for, if any.
+pub(crate) fn started_at(p: &Params, solved: Option<f64>) -> Params {
+    Params {
+        dte_start: solved.unwrap_or(p.dte_start),
+        ..p.clone()
     }
 }

@@ -231,15 +231,15 @@ impl FmiState {
     }
 }
 
-/// Layout of a serialized FMU state (format version 8; 7's envelope was the same): magic (8), version (u32), GUID length
+/// Layout of a serialized FMU state (format version 9; 7's and 8's envelope was the same): magic (8), version (u32), GUID length
 /// (u32) and bytes, payload length (u64), payload, FNV-1a 64 checksum (u64). Returns the
 /// payload's offset and length; panics with a clear message on another format version.
 pub fn payload_range(b: &[u8]) -> (usize, usize) {
     assert!(b.len() >= 24, "serialized state of {} bytes", b.len());
     let version = u32::from_le_bytes(b[8..12].try_into().unwrap());
     assert_eq!(
-        version, 8,
-        "the tests read serialized-state format version 8; update tests/fmi_support/ffi.rs"
+        version, 9,
+        "the tests read serialized-state format version 9; update tests/fmi_support/ffi.rs"
     );
     let glen = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
     let p0 = 16 + glen + 8;

@@ -10,6 +10,7 @@
 //! and w_B are derived from them.
 
 mod rigid_contact;
+pub mod statics;
 #[cfg(test)]
 mod tests;
 
@@ -155,6 +156,9 @@ pub struct PaperRig {
     pub stats: Option<Statistics>,
     /// Interpolated inputs, if the master gave input derivatives.
     pub ramp: Option<Ramp>,
+    /// The dte_start a static start solved for (parameter `static_start`), kept for a saved
+    /// state: its configuration is built again from it.
+    pub static_dte: Option<f64>,
 }
 
 /// The mesh's configuration and state are read through the rig (`rig.geo`, `rig.sigma`).
@@ -243,6 +247,7 @@ impl PaperRig {
             e_start: 0.0,
             stats: p.statistics.then(|| Statistics::new(p.stats_start)),
             ramp: None,
+            static_dte: None,
         };
         let mut y = [
             theta_a,
