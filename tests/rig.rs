@@ -276,9 +276,6 @@ fn the_static_start_is_the_reference_running_start() {
         dte_start: d,
         ..p.clone()
     };
-    let (rig, y) = PaperRig::new(&q, &i).unwrap();
-    let mut dy = Default::default();
-    rig.rhs(&y, &mut dy).unwrap();
     let (mut lo, mut hi) = (q.clone(), q.clone());
     lo.dte_start = 0.9 * d;
     hi.dte_start = 1.1 * d;
@@ -289,10 +286,10 @@ fn the_static_start_is_the_reference_running_start() {
         dy[DDTE]
     };
     // Against what a 10 % error in the deflection would leave.
+    let balance = acc(&q);
     assert!(
-        dy[DDTE].abs() <= 1e-8 * (acc(&lo) - acc(&hi)).abs(),
-        "{}",
-        dy[DDTE]
+        balance.abs() <= 1e-8 * (acc(&lo) - acc(&hi)).abs(),
+        "{balance}"
     );
     for (key, bad) in [
         (
