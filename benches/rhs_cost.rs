@@ -28,6 +28,7 @@ use spur_gear_mesh::model::train::{
     self, Body, MeshPlace, Planet, Ripple, Train, TrainSpec, HOUSING,
 };
 use spur_gear_mesh::model::{PaperRig, State, NY};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 use std::hint::black_box;
 use std::time::Instant;
@@ -54,7 +55,7 @@ fn setup(contact_model: i32) -> (PaperRig, Vec<State>) {
         dte_start: delta,
         ..p
     };
-    let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
+    let (mesh, y0) = table::paper_rig(&p, &i).unwrap();
     let g = &mesh.geo;
     let states = (0..64)
         .map(|k| {
@@ -94,7 +95,7 @@ fn pair_setup(internal: bool, mu: f64, v_reg: f64) -> (PaperRig, Vec<State>) {
         tau_A: 20.0,
         ..Inputs::default()
     };
-    let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
+    let (mesh, y0) = table::paper_rig(&p, &i).unwrap();
     let g = &mesh.geo;
     let states = (0..64)
         .map(|k| {
@@ -124,7 +125,7 @@ fn paper_setup(chi: f64) -> (PaperRig, Vec<State>) {
         tau_A: 100.0,
         ..Inputs::default()
     };
-    let (mesh, y0) = PaperRig::new(&p, &i).unwrap();
+    let (mesh, y0) = table::paper_rig(&p, &i).unwrap();
     let g = &mesh.geo;
     let states = (0..64)
         .map(|k| {
@@ -163,7 +164,8 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
             center_angle: 0.0,
             mount_a: 0.0,
             mount_b: 0.0,
-            params: pair.clone(),
+            pair: table::pair(&pair).unwrap(),
+            dte_start: pair.dte_start,
         })
         .collect();
     let spec = TrainSpec {
@@ -229,7 +231,8 @@ fn planetary_setup() -> (Train, Vec<train::State>, [(PaperRig, Vec<State>); 2]) 
         center_angle: 0.0,
         mount_a: 0.0,
         mount_b: 0.0,
-        params: params.clone(),
+        pair: table::pair(params).unwrap(),
+        dte_start: params.dte_start,
     };
     for k in 0..4 {
         bodies.push(body(
@@ -264,7 +267,7 @@ fn planetary_setup() -> (Train, Vec<train::State>, [(PaperRig, Vec<State>); 2]) 
         })
         .collect();
     let rig = |p: &Params| {
-        let (m, y0) = PaperRig::new(p, &Inputs::default()).unwrap();
+        let (m, y0) = table::paper_rig(p, &Inputs::default()).unwrap();
         let g = m.geo.clone();
         let st = (0..64)
             .map(|k| {

@@ -5,10 +5,10 @@
 //!
 //! Run: `cargo bench --bench throughput` (add `-- --quick` for fewer repetitions).
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
 use spur_gear_mesh::fmi::outputs::{is_energy, write};
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, Status};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{
     Causality, Inputs, Outputs, Params, Var, VarType, GUID, VARIABLES,
 };
@@ -122,7 +122,7 @@ fn main() {
             };
             let direct: Vec<f64> = (0..reps)
                 .map(|_| {
-                    let mut s = Simulation::new(&p, &i, 0.0, rel_tol).unwrap();
+                    let mut s = table::simulation(&p, &i, 0.0, rel_tol).unwrap();
                     let t0 = Instant::now();
                     let (mut acc, mut o) = (0.0, Outputs::default());
                     for k in 1..=(t_end / h).round() as usize {

@@ -1,6 +1,6 @@
 //! Fraction of samples in double / single / no contact for the paper rig, for a given dte_start and chi.
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn main() {
@@ -17,7 +17,7 @@ fn main() {
         chi,
         ..Params::default()
     };
-    let mut sim = Simulation::new(
+    let mut sim = table::simulation(
         &p,
         &Inputs {
             tau_A: 100.0,

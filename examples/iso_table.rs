@@ -9,6 +9,7 @@ use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::law::{ContactLaw, JohnsonLaw};
 use spur_gear_mesh::model::static_mesh;
 use spur_gear_mesh::model::tooth_structure::structure_law;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 
 /// Standard pairs (zA, zB, module [mm], xA, xB): z 17-100, x -0.5..0.5, module 2-8 mm.
@@ -86,7 +87,8 @@ fn main() {
             width: WIDTH,
             ..Params::default()
         };
-        let g = match Geometry::new(&p) {
+        let pair = table::pair(&p).expect("the table's ranges");
+        let g = match Geometry::new(&pair) {
             Ok(g) => g,
             Err(e) => {
                 println!(
@@ -97,7 +99,7 @@ fn main() {
             }
         };
         let johnson = JohnsonLaw::new(g.l, g.kappa, g.e_star, WIDTH);
-        let structure = structure_law(&p, &g).expect("model 3");
+        let structure = structure_law(&pair, pair.rack().unwrap(), &g).expect("model 3");
         let stiffness = |law: &dyn ContactLaw| {
             let (_, mean, _) = static_mesh::cycle(law, &g, w, 2048);
             let peak = static_mesh::single_pair_peak(law, &g, w);

@@ -1,11 +1,11 @@
 //! Error of each method against a tight Dormand-Prince run, over a range of tolerances, on the
 //! damped paper rig and on a hard, light variant: a quick look at convergence.
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn run(p: &Params, tau: f64, rtol: f64, h: f64, t_end: f64) -> (Vec<f64>, u64) {
-    let mut s = Simulation::new(
+    let mut s = table::simulation(
         p,
         &Inputs {
             tau_A: tau,

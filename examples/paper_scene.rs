@@ -1,6 +1,6 @@
 //! Runs the paper scene through the driver directly (no FMI) and prints a summary.
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn main() {
@@ -22,7 +22,7 @@ fn main() {
         ..Inputs::default()
     };
     let t0 = std::time::Instant::now();
-    let mut sim = Simulation::new(&p, &i, 0.0, rtol).unwrap();
+    let mut sim = table::simulation(&p, &i, 0.0, rtol).unwrap();
     let h = 1e-5;
     let (mut n2, mut n1, mut n0) = (0, 0, 0);
     let mut max_diff: f64 = 0.0;

@@ -26,11 +26,11 @@
 //!
 //! Used by tools/work_precision.py (docs/performance.md).
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
 use spur_gear_mesh::fmi::outputs::{outputs, write};
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, Status};
 use spur_gear_mesh::model::{Loads, PaperRig, State, NY};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params, Var, VarType, GUID, VARIABLES};
 use std::ffi::CString;
 use std::io::Write;
@@ -283,7 +283,7 @@ fn run_rust(c: &Config, rows: &mut Vec<Row>) -> RunResult {
         tab.apply(0.0, &mut inputs);
     }
     let start = Clock::start();
-    let mut sim = Simulation::new(&c.params, &inputs, 0.0, c.params.rel_tol).expect("scene");
+    let mut sim = table::simulation(&c.params, &inputs, 0.0, c.params.rel_tol).expect("scene");
     sim.set_stop_time(c.stop_time);
     let mut o = Outputs::default();
     write(&sim, &mut o).unwrap();
@@ -559,7 +559,7 @@ fn run_naive(c: &Config, rows: &mut Vec<Row>) -> RunResult {
         tab.apply(0.0, &mut inputs);
     }
     let start = Clock::start();
-    let (rig, y) = PaperRig::new(&c.params, &inputs).expect("scene");
+    let (rig, y) = table::paper_rig(&c.params, &inputs).expect("scene");
     let mut nv = Naive {
         rig,
         y,

@@ -19,6 +19,7 @@ use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::law::{ContactLaw, JohnsonLaw};
 use spur_gear_mesh::model::static_mesh;
 use spur_gear_mesh::model::tooth_structure::structure_law;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Params, Var, VarType, VARIABLES};
 
 fn main() {
@@ -54,10 +55,12 @@ fn main() {
         }
         i += 2;
     }
-    let g = Geometry::new(&p).unwrap_or_else(|e| panic!("{}", e.message));
+    let pair = table::pair(&p).unwrap_or_else(|e| panic!("{}", e.message));
+    let g = Geometry::new(&pair).unwrap_or_else(|e| panic!("{}", e.message));
     let w = torque / g.r_ab;
     let johnson = JohnsonLaw::new(g.l, g.kappa, g.e_star, p.width);
-    let structure = structure_law(&p, &g).unwrap_or_else(|e| panic!("{}", e.message));
+    let structure =
+        structure_law(&pair, pair.rack().unwrap(), &g).unwrap_or_else(|e| panic!("{}", e.message));
     if p.tip_relief_A == 0.0 && p.tip_relief_B == 0.0 {
         let pitch_point = g.l * g.r_ab / (g.r_ab + g.r_bb);
         let single = w / static_mesh::single_pair_stiffness(&structure, pitch_point, w);
@@ -71,7 +74,7 @@ fn main() {
         (p.tip_relief_length_A, p.tip_relief_length_B) = (length, length);
         p.tip_relief_shape = 1;
     }
-    let relief = Deviations::from_params(&p, &g)
+    let relief = Deviations::new(&table::pair(&p).unwrap(), &g)
         .unwrap_or_else(|e| panic!("{}", e.message))
         .expect("a tip relief");
     println!("contact_model,tip_relief,theta_A,s0,static_te,k_mesh,secant,pairs");

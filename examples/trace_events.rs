@@ -1,6 +1,6 @@
 //! Prints every located event and a few samples: a debugging aid for scenes.
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn main() {
@@ -21,7 +21,7 @@ fn main() {
         tau_B: 0.0,
         ..Inputs::default()
     };
-    let mut sim = Simulation::new(&p, &i, 0.0, 1e-8).unwrap();
+    let mut sim = table::simulation(&p, &i, 0.0, 1e-8).unwrap();
     let n = 60;
     for k in 1..=n {
         sim.advance(k as f64 * t_end / n as f64, &mut |t, r| {

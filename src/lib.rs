@@ -9,4 +9,4 @@
 pub mod fmi;
 /// The model and the driver live in the gear_model crate, shared with the other FMUs; they are
 /// re-exported here under the paths they always had.
-pub use gear_model::{driver, model, variables};
+pub use gear_model::{driver, model, table, variables};

@@ -4,11 +4,10 @@
 mod common;
 
 use common::static_delta;
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::contact::{self, Flank};
 use spur_gear_mesh::model::geometry::Geometry;
-use spur_gear_mesh::model::PaperRig;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 fn pitch(z: usize, teeth: &[(usize, f64)]) -> String {
@@ -39,8 +38,8 @@ fn each_pair_carries_at_its_own_penetration() {
         chi: 0.0,
         ..Params::default()
     };
-    let g = Geometry::new(&p).unwrap();
-    let (mesh, y) = PaperRig::new(&p, &Inputs::default()).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
+    let (mesh, y) = table::paper_rig(&p, &Inputs::default()).unwrap();
     let o = mesh.readout(&y).unwrap();
     let own = [dte + 1e-7 - 3e-8, dte - 4e-8 - 2e-8];
     for (k, delta) in own.into_iter().enumerate() {
@@ -66,7 +65,7 @@ fn each_pair_carries_at_its_own_penetration() {
         pitch_errors_B: pitch(33, &[(1, 3e-8), (32, 2e-8)]),
         ..p
     };
-    let (mesh, y) = PaperRig::new(&p, &Inputs::default()).unwrap();
+    let (mesh, y) = table::paper_rig(&p, &Inputs::default()).unwrap();
     let o = mesh.readout(&y).unwrap();
     let below = mesh.sigma[3] < mesh.sigma[2];
     let delta = if below {
@@ -86,7 +85,7 @@ fn each_pair_carries_at_its_own_penetration() {
 /// along the line), backward up (the backward line runs the other way).
 #[test]
 fn jumps_move_the_teeth_by_the_jump() {
-    let g = Geometry::new(&Params::default()).unwrap();
+    let g = Geometry::new(&table::pair(&Params::default()).unwrap()).unwrap();
     let span = g.m_c as f64 * g.p_b;
     let s = contact::initial_sigmas(&g);
     let m = g.m_c as i64;
@@ -151,7 +150,7 @@ fn the_energy_balance_holds_with_deviations() {
             ..Inputs::default()
         };
         let residual = |rtol: f64| {
-            let mut sim = Simulation::new(&p, &i, 0.0, rtol).unwrap();
+            let mut sim = table::simulation(&p, &i, 0.0, rtol).unwrap();
             sim.advance(0.02, &mut |_, _| {}).unwrap();
             let o = outputs(&sim).unwrap();
             (o.energy_residual, o.E_kin, o.n_events, o.n_steps)

@@ -4,13 +4,13 @@
 //! forced steps. Both explicit methods (solvers 1 and 3) run them.
 
 use proptest::prelude::*;
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::model::geometry::Geometry;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 /// Runs to t_end in one communication step; returns the located events (time, description).
 fn events(p: &Params, i: &Inputs, rtol: f64, t_end: f64, max_step: f64) -> Vec<(f64, String)> {
-    let mut sim = Simulation::new(p, i, 0.0, rtol).unwrap();
+    let mut sim = table::simulation(p, i, 0.0, rtol).unwrap();
     sim.driver.max_step = max_step;
     let mut log = Vec::new();
     sim.advance(t_end, &mut |t, r| log.push((t, r.what.clone())))
@@ -60,7 +60,7 @@ fn a_graze_into_the_forward_flank_is_located() {
             })
             .map(|b| (rtol, b))
         }) {
-            let g = Geometry::new(&base).unwrap();
+            let g = Geometry::new(&table::pair(&base).unwrap()).unwrap();
             let a = -g.r_ab / base.J_A;
             let v0 = (2.0 * a.abs() * (depth - base.dte_start)).sqrt();
             let w_a = 10.0;
@@ -102,7 +102,7 @@ fn a_grazed_pair_switch_is_located() {
             })
             .map(|b| (rtol, b))
         }) {
-            let g = Geometry::new(&base).unwrap();
+            let g = Geometry::new(&table::pair(&base).unwrap()).unwrap();
             let alpha = -1.0 / base.J_A;
             let w0 = (2.0 * alpha.abs() * (x + depth) / g.r_ab).sqrt();
             let p = Params {
@@ -146,7 +146,7 @@ fn same_events_with_forced_small_steps(
     slip: f64,
     tau_a: f64,
 ) -> Result<(), TestCaseError> {
-    let g = Geometry::new(&base).unwrap();
+    let g = Geometry::new(&table::pair(&base).unwrap()).unwrap();
     let p = Params {
         w_A_start: w_a,
         w_B_start: w_a * g.r_ab / g.r_bb * (1.0 + slip),

@@ -49,6 +49,7 @@
 
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::train::{coord_index, Body, MeshPlace, Ripple, State, Train, TrainSpec};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
 
@@ -367,6 +368,8 @@ fn pairs(a: &Gear, b: &Gear, line: &Line, side_a: f64, side_b: f64) -> Result<Ve
 struct Config {
     label: String,
     spec: TrainSpec,
+    /// The pair's standard gear data, which the checks compute the gears from.
+    params: Params,
 }
 
 /// A random pair from standard gear data and its random placement; Err: the model refuses
@@ -419,7 +422,9 @@ fn random_config(rng: &mut Rng, internal: bool, n: usize) -> Result<Config, Stri
     let mount_a = rng.uniform(-PI, PI);
     let mount_b = rng.uniform(-PI, PI);
     let angle_start = rng.uniform(-PI, PI);
-    let j_n = Geometry::new(&p).map_err(|e| e.message)?.j_n;
+    let j_n = Geometry::new(&table::pair(&p).unwrap())
+        .map_err(|e| e.message)?
+        .j_n;
     p.dte_start = rng.uniform(-j_n, 1e-6);
     let label = format!(
         "#{n} {} m = {module}, alpha0 = {:.0} deg, zA = {z_a}, zB = {z_b}, xA = {x_a}, xB = {x_b}, backlash = {backlash}, cde = {center_distance_error}, dte_start = {}, center_angle = {center_angle}, mount_a = {mount_a}, mount_b = {mount_b}, angle_start = {angle_start}",
@@ -447,9 +452,11 @@ fn random_config(rng: &mut Rng, internal: bool, n: usize) -> Result<Config, Stri
                 center_angle,
                 mount_a,
                 mount_b,
-                params: p,
+                pair: table::pair(&p).unwrap(),
+                dte_start: p.dte_start,
             }],
         },
+        params: p,
     })
 }
 
@@ -507,7 +514,7 @@ fn check_state(
 ) {
     let mp = &train.spec().meshes[0];
     let g = &train.meshes[0].geo;
-    let internal = mp.params.internal;
+    let internal = mp.pair.internal;
     let [r_ab, r_bb, r_tip_a, r_tip_b, t_a, t_b] = data;
     let beta = mp.center_angle;
     let a = Gear {
@@ -515,7 +522,7 @@ fn check_state(
         r_b: r_ab,
         r_tip: r_tip_a,
         t: t_a,
-        z: mp.params.zA as usize,
+        z: mp.pair.a.z as usize,
         ring: false,
         axis0: psi[0] + mp.mount_a,
     };
@@ -524,7 +531,7 @@ fn check_state(
         r_b: r_bb,
         r_tip: r_tip_b,
         t: t_b,
-        z: mp.params.zB as usize,
+        z: mp.pair.b.z as usize,
         ring: internal,
         axis0: psi[1] + mp.mount_b,
     };
@@ -704,7 +711,7 @@ fn run(internal: bool, seed: u64) -> Summary {
             }
         };
         sum.checked += 1;
-        let p = &cfg.spec.meshes[0].params;
+        let p = &cfg.params;
         let g = &train.meshes[0].geo;
         // The gears' data: standard gear data against the model's.
         let data = standard_gears(p);

@@ -5,10 +5,9 @@
 mod common;
 
 use common::{run, static_delta};
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
-use spur_gear_mesh::model::PaperRig;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
 use std::f64::consts::PI;
 
@@ -42,7 +41,7 @@ fn drive(p: Params) -> (Params, Inputs) {
 /// The same drive forward (sign 1) or backward (sign -1, on the backward flanks, started at
 /// their static penetration).
 fn drive_with(p: Params, sign: f64) -> (Params, Inputs) {
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let (tau, w_a) = (sign * 20.0, sign * 100.0);
     let w_b = w_a * g.r_ab / g.r_bb;
     let delta = static_delta(20.0 / g.r_ab / 2.0 / p.width, &g);
@@ -67,7 +66,7 @@ fn drive_with(p: Params, sign: f64) -> (Params, Inputs) {
 #[test]
 fn static_load_under_the_internal_law() {
     let base = ring(0.0, 0.0);
-    let g = Geometry::new(&base).unwrap();
+    let g = Geometry::new(&table::pair(&base).unwrap()).unwrap();
     let tau_a = 20.0;
     let delta = static_delta(tau_a / g.r_ab / 2.0 / base.width, &g);
     // The check tells the laws apart: with R = L - delta < L + delta the log term, and so the
@@ -110,7 +109,7 @@ fn static_load_under_the_internal_law() {
 #[test]
 fn ratio_and_mesh_frequency() {
     let (p, i) = drive(ring(20.0, 0.0));
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let h = 1e-6;
     let out = run(&p, &i, 1e-8, h, 0.04);
     let tail = &out[10_000..];
@@ -141,7 +140,7 @@ fn energy_balance() {
         let (p, i) = drive_with(ring(chi, mu), sign);
         let mut residuals = Vec::new();
         for rtol in [1e-6, 1e-9] {
-            let mut sim = Simulation::new(&p, &i, 0.0, rtol).unwrap();
+            let mut sim = table::simulation(&p, &i, 0.0, rtol).unwrap();
             sim.advance(0.01, &mut |_, _| {}).unwrap();
             let o = outputs(&sim).unwrap();
             let bound = 4.0 * rtol * (o.E_kin + p.J_A + p.J_B) * sim.driver.stats.steps as f64;
@@ -166,7 +165,7 @@ fn energy_balance() {
 #[test]
 fn friction_flips_at_the_pitch_point() {
     let (p, i) = drive(ring(20.0, 0.1));
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let s_pitch = g.r_ab * g.alpha_w.tan();
     assert!(s_pitch > g.s_a + 1e-3 && s_pitch < g.s_b - 1e-3);
     let out = run(&p, &i, 1e-8, 1e-5, 0.03);
@@ -203,7 +202,7 @@ fn friction_flips_at_the_pitch_point() {
 #[test]
 fn what_a_ring_cannot_have_yet_is_refused() {
     let i = Inputs::default();
-    let e = PaperRig::new(
+    let e = table::paper_rig(
         &Params {
             contact_model: 3,
             ..ring(0.0, 0.0)
@@ -216,7 +215,7 @@ fn what_a_ring_cannot_have_yet_is_refused() {
         "{}",
         e.message
     );
-    let e = PaperRig::new(
+    let e = table::paper_rig(
         &Params {
             slider_stiffness: 1e9,
             ..ring(0.0, 0.0)
@@ -239,7 +238,7 @@ fn rigid_contact_on_a_ring_rolls_as_one_body() {
         dte_start: 0.0,
         ..p
     };
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let rtol = 1e-10;
     let f = i.tau_A / g.r_ab;
     for o in run(&p, &i, rtol, 1e-4, 0.01) {

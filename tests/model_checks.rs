@@ -4,9 +4,9 @@
 mod common;
 
 use common::{run, static_delta};
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
 use std::f64::consts::PI;
 
@@ -46,7 +46,7 @@ fn static_load_single_and_double_contact() {
             c_load: 0.0,
             ..Params::default()
         };
-        let g = Geometry::new(&base).unwrap();
+        let g = Geometry::new(&table::pair(&base).unwrap()).unwrap();
         let delta = static_delta(tau_a / g.r_ab / pairs / base.width, &g);
         let p = Params {
             dte_start: delta,
@@ -88,7 +88,7 @@ fn static_load_single_and_double_contact() {
 #[test]
 fn pairs_in_double_contact_carry_equal_forces() {
     let (p, i) = paper(0.0);
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let out = run(&p, &i, 1e-6, 1e-5, 0.05);
     let double: Vec<&Outputs> = out
         .iter()
@@ -164,7 +164,7 @@ fn energy_balance_holds_and_converges() {
         };
         let mut residuals = Vec::new();
         for rtol in [1e-6, 1e-9] {
-            let mut sim = Simulation::new(&p, &i, 0.0, rtol).unwrap();
+            let mut sim = table::simulation(&p, &i, 0.0, rtol).unwrap();
             sim.advance(0.02, &mut |_, _| {}).unwrap();
             let o = outputs(&sim).unwrap();
             let steps = sim.driver.stats.steps as f64;
@@ -197,7 +197,7 @@ fn friction_dissipates_and_flips_at_the_pitch_point() {
     };
     let out = run(&p, &paper(10.0).1, 1e-8, 1e-5, 0.03);
     assert!(out.iter().all(|o| o.P_loss >= 0.0));
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let s_pitch = g.r_ab * g.alpha_w.tan();
     // Friction torque on A = tau_mesh_A minus the normal part -F_fwd rAb; in single contact it
     // is mu tanh(v_s/v_reg) F s_A with v_s changing sign at the pitch point: positive before

@@ -6,6 +6,7 @@
 use spur_gear_mesh::model::train::{
     coord_index, Body, MeshPlace, Planet, Ripple, Shaft, Train, TrainSpec, HOUSING,
 };
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
 
@@ -58,7 +59,8 @@ fn mesh(a: usize, b: usize, params: Params) -> MeshPlace {
         center_angle: 0.0,
         mount_a: 0.0,
         mount_b: 0.0,
-        params,
+        pair: table::pair(&params).unwrap(),
+        dte_start: params.dte_start,
     }
 }
 

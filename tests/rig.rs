@@ -4,13 +4,13 @@
 mod common;
 
 use common::static_delta;
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
 
 fn run(p: &Params, i: &Inputs, rtol: f64, h: f64, t_end: f64) -> Vec<(f64, Outputs)> {
-    let mut sim = Simulation::new(p, i, 0.0, rtol).unwrap();
+    let mut sim = table::simulation(p, i, 0.0, rtol).unwrap();
     let n = (t_end / h).round() as usize;
     (1..=n)
         .map(|k| {
@@ -44,7 +44,7 @@ fn rigid_forward_lock_matches_the_closed_form() {
         tau_A: 100.0,
         ..Inputs::default()
     };
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let ratio = g.r_bb / g.r_ab;
     let j = p.J_A + p.J_B / (ratio * ratio);
     let w_inf = i.tau_A * ratio * ratio / p.c_load;
@@ -55,7 +55,11 @@ fn rigid_forward_lock_matches_the_closed_form() {
             ..p.clone()
         };
         let out = run(&p, &i, 1e-12, 1e-3, 0.1);
-        let atol_dte = Simulation::new(&p, &i, 0.0, 1e-12).unwrap().driver.tol.atol[1];
+        let atol_dte = table::simulation(&p, &i, 0.0, 1e-12)
+            .unwrap()
+            .driver
+            .tol
+            .atol[1];
         let bound = if solver == 1 { 1e-12 } else { 1e-9 };
         for (t, o) in &out {
             let w_a = w_inf + (p.w_A_start - w_inf) * (-rate * t).exp();
@@ -116,7 +120,7 @@ fn housing_motion_in_free_flight() {
         a_housing_x: a_x,
         ..Inputs::default()
     };
-    let g = Geometry::new(&p).unwrap();
+    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let w0 = (k / m).sqrt();
     let x_amp = a_x * m / k;
     for (t, o) in run(&p, &i, 1e-10, 1e-3, 0.01) {
@@ -178,7 +182,7 @@ fn rigid_impacts_keep_the_energy_balance() {
             last.energy_residual
         );
         if e == 0.0 {
-            let g = Geometry::new(&p).unwrap();
+            let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
             let v = g.r_bb * 0.01;
             let inv_m = g.r_ab * g.r_ab / p.J_A + g.r_bb * g.r_bb / p.J_B;
             let loss = 0.5 * v * v / inv_m;
@@ -213,7 +217,7 @@ fn slider_static_balance() {
         slider_damping: 2.0 * (k * m).sqrt(),
         ..Params::default()
     };
-    let g = Geometry::new(&base).unwrap();
+    let g = Geometry::new(&table::pair(&base).unwrap()).unwrap();
     let force = tau_a / g.r_ab;
     let delta = static_delta(force / 2.0 / base.width, &g);
     let p = Params {
@@ -257,7 +261,7 @@ fn slider_static_balance() {
 #[test]
 fn the_static_start_is_the_reference_running_start() {
     use spur_gear_mesh::model::paper_rig::statics::static_dte_start;
-    use spur_gear_mesh::model::paper_rig::{PaperRig, DDTE};
+    use spur_gear_mesh::model::paper_rig::DDTE;
     let p = Params {
         c_load: 2.0,
         chi: 10.0,
@@ -269,7 +273,7 @@ fn the_static_start_is_the_reference_running_start() {
         tau_A: 100.0,
         ..Inputs::default()
     };
-    let d = static_dte_start(&p, &i).unwrap();
+    let d = static_dte_start(&table::rig(&p).unwrap(), &table::loads(&p, &i)).unwrap();
     let want = 5.592370531367129e-07;
     assert!(rel(d, want) <= 1e-9, "{d} against {want}");
     let q = Params {
@@ -280,7 +284,7 @@ fn the_static_start_is_the_reference_running_start() {
     lo.dte_start = 0.9 * d;
     hi.dte_start = 1.1 * d;
     let acc = |p: &Params| {
-        let (rig, y) = PaperRig::new(p, &i).unwrap();
+        let (rig, y) = table::paper_rig(p, &i).unwrap();
         let mut dy: spur_gear_mesh::model::paper_rig::State = Default::default();
         rig.rhs(&y, &mut dy).unwrap();
         dy[DDTE]
@@ -307,7 +311,7 @@ fn the_static_start_is_the_reference_running_start() {
             },
         ),
     ] {
-        let e = static_dte_start(&bad, &i).unwrap_err();
+        let e = static_dte_start(&table::rig(&bad).unwrap(), &table::loads(&bad, &i)).unwrap_err();
         assert!(
             e.message.starts_with("parameter static_start = true"),
             "{key}: {}",

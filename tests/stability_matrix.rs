@@ -7,10 +7,10 @@
 //! `cargo test --release --test stability_matrix -- --ignored full_sweep --nocapture` runs the
 //! full sweep and writes docs/stability.md.
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::exports::*;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::fmi::{CallbackFunctions, Component, LoggerFn, Status};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params, Var, GUID};
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::time::Instant;
@@ -211,7 +211,7 @@ fn driver_run(case: &Case, solver: i32, rel_tol: f64) -> Option<Vec<[f64; 3]>> {
         tau_B: 0.0,
         ..Inputs::default()
     };
-    let mut sim = Simulation::new(&p, &i, 0.0, rel_tol).ok()?;
+    let mut sim = table::simulation(&p, &i, 0.0, rel_tol).ok()?;
     let n = (case.t_end / case.comm_step).round() as usize;
     let mut out = Vec::new();
     for k in 0..n {

@@ -2,8 +2,8 @@
 //! depend on the communication step, and they agree with a finely sampled trace of the same run
 //! within the sampling error bounded from that trace.
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
 
 const T_END: f64 = 0.1;
@@ -29,7 +29,7 @@ fn run(p: &Params, h: f64) -> Vec<(f64, Outputs)> {
         tau_A: 100.0,
         ..Inputs::default()
     };
-    let mut sim = Simulation::new(p, &inputs, 0.0, 1e-6).unwrap();
+    let mut sim = table::simulation(p, &inputs, 0.0, 1e-6).unwrap();
     let n = (T_END / h).round() as usize;
     (1..=n)
         .map(|k| {

@@ -1,11 +1,11 @@
 //! Contact model 3 in the mesh (issue 9, point 1): the tooth structure in series with Weber's
 //! local contact, behind the same interface as Johnson's law.
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::law::ContactLaw;
 use spur_gear_mesh::model::tooth_structure::{structure_law, LN_C_TOLERANCE};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 /// A standard 22/33 pair (module 10 mm, 20 degrees, the table's defaults) on the paper rig.
@@ -42,7 +42,7 @@ fn energy_balance_holds_with_the_tooth_structure() {
         };
         let mut residuals = Vec::new();
         for rtol in [1e-6, 1e-9] {
-            let mut sim = Simulation::new(&p, &drive(), 0.0, rtol).unwrap();
+            let mut sim = table::simulation(&p, &drive(), 0.0, rtol).unwrap();
             sim.advance(0.02, &mut |_, _| {}).unwrap();
             let o = outputs(&sim).unwrap();
             let steps = sim.driver.stats.steps as f64;
@@ -70,7 +70,7 @@ fn the_tooth_structure_softens_the_mesh() {
             chi: 10.0,
             ..standard(cm)
         };
-        let mut sim = Simulation::new(&p, &drive(), 0.0, 1e-8).unwrap();
+        let mut sim = table::simulation(&p, &drive(), 0.0, 1e-8).unwrap();
         let (mut f, mut d) = (0.0, 0.0);
         for k in 1..=500 {
             sim.advance(0.05 + k as f64 * 1e-4, &mut |_, _| {}).unwrap();
@@ -94,8 +94,9 @@ fn the_law_is_consistent() {
             zB: zb,
             ..standard(3)
         };
-        let g = Geometry::new(&p).unwrap();
-        let law = structure_law(&p, &g).unwrap();
+        let pair = table::pair(&p).unwrap();
+        let g = Geometry::new(&pair).unwrap();
+        let law = structure_law(&pair, pair.rack().unwrap(), &g).unwrap();
         for i in 0..=1000 {
             let s = g.s_a + (g.s_b - g.s_a) * i as f64 / 1000.0;
             let exact = law.structure.ln_c(s);
@@ -142,7 +143,7 @@ fn the_tooth_structure_needs_the_standard_geometry() {
         geometry: 1,
         ..standard(3)
     };
-    let err = Simulation::new(&p, &drive(), 0.0, 1e-6).unwrap_err();
+    let err = table::simulation(&p, &drive(), 0.0, 1e-6).unwrap_err();
     assert!(
         err.message.contains("contact_model") && err.message.contains("geometry"),
         "{}",
@@ -155,7 +156,6 @@ fn the_tooth_structure_needs_the_standard_geometry() {
 /// initialization says so once, naming the wheel.
 #[test]
 fn outside_sainsots_domain_is_a_warning() {
-    use spur_gear_mesh::model::PaperRig;
     let p = Params {
         zA: 60,
         zB: 100,
@@ -164,7 +164,7 @@ fn outside_sainsots_domain_is_a_warning() {
         xB: -0.5,
         ..standard(3)
     };
-    let (mesh, _) = PaperRig::new(&p, &drive()).unwrap();
+    let (mesh, _) = table::paper_rig(&p, &drive()).unwrap();
     let w: Vec<&String> = mesh
         .geo
         .warnings
@@ -176,7 +176,7 @@ fn outside_sainsots_domain_is_a_warning() {
         "{:?}",
         mesh.geo.warnings
     );
-    let (quiet, _) = PaperRig::new(&standard(3), &drive()).unwrap();
+    let (quiet, _) = table::paper_rig(&standard(3), &drive()).unwrap();
     assert!(quiet.geo.warnings.iter().all(|w| !w.contains("u_f")));
 }
 
@@ -192,11 +192,12 @@ fn k_mesh_and_load_share() {
             chi: 10.0,
             ..standard(cm)
         };
-        let g = Geometry::new(&p).unwrap();
+        let pair = table::pair(&p).unwrap();
+        let g = Geometry::new(&pair).unwrap();
         let johnson = JohnsonLaw::new(g.l, g.kappa, g.e_star, p.width);
-        let structure = structure_law(&p, &g).unwrap();
+        let structure = structure_law(&pair, pair.rack().unwrap(), &g).unwrap();
         let law: &dyn ContactLaw = if cm == 1 { &johnson } else { &structure };
-        let mut sim = Simulation::new(&p, &drive(), 0.0, 1e-8).unwrap();
+        let mut sim = table::simulation(&p, &drive(), 0.0, 1e-8).unwrap();
         let mut uneven = 0;
         for k in 1..=400 {
             sim.advance(0.05 + k as f64 * 1e-4, &mut |_, _| {}).unwrap();

@@ -196,7 +196,7 @@ fn interface_names_exist() {
 /// geometry front end (`geometry` = their table entry's).
 #[test]
 fn parameter_ranges_come_from_the_table() {
-    use spur_gear_mesh::model::params::validate;
+    use spur_gear_mesh::table::validate;
     use spur_gear_mesh::variables::Params;
     let mut checked = 0;
     for info in VARIABLES

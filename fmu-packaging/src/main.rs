@@ -13,6 +13,7 @@
 
 use model_description::{load, model_description_xml, model_description_xml3, Table};
 use spur_gear_mesh::model::geometry::Geometry;
+use spur_gear_mesh::model::pair::Pair;
 use spur_gear_mesh::variables::Params;
 
 fn main() {
@@ -122,7 +123,7 @@ fn documentation(t: &Table) -> String {
     );
     h.push_str("<p>Source: I. I. Kosenko, I. K. Gusev, <i>Computer model of the spur involute gear mesh dynamics in gearboxes</i>, Rus. J. Nonlin. Dyn. 8(4), 2012, 713-734.</p>\n");
     h.push_str(&figure(
-        &Geometry::new(&Params::default()).expect("the default parameters are valid"),
+        &Geometry::new(&Pair::paper()).expect("the default parameters are valid"),
         "Geometry (paper defaults)",
     ));
     h.push_str(
@@ -148,7 +149,8 @@ fn documentation(t: &Table) -> String {
          is refused with the numbers.</p>\n",
     );
     h.push_str(&figure(
-        &Geometry::new(&internal_example()).expect("the worked internal pair is valid"),
+        &Geometry::new(&spur_gear_mesh::table::pair(&internal_example()).unwrap())
+            .expect("the worked internal pair is valid"),
         "Geometry of an internal pair (20/60, m = 2 mm, xB = 0.5)",
     ));
     for (title, causality) in [

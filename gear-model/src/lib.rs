@@ -8,4 +8,5 @@
 
 pub mod driver;
 pub mod model;
+pub mod table;
 pub mod variables;

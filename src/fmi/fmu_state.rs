@@ -92,7 +92,7 @@ fn check_values(s: &Simulation) -> Result<(), String> {
 /// checksum cannot make.
 fn rebuild(sim: &mut Simulation, s: &Snapshot) -> Result<(), String> {
     let p = started_at(&s.params, sim.rig.static_dte);
-    let fresh = Simulation::new(&p, &s.inputs, s.start_time, s.params.rel_tol)
+    let fresh = gear_model::table::simulation(&p, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
     if sim.rig.stats.is_some() != fresh.rig.stats.is_some() {
         return Err("the statistics in the state do not match the parameter statistics".into());
@@ -125,8 +125,7 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
     if tolerance.is_some_and(|t| !(1e-14..=0.1).contains(&t)) {
         return Err(format!("invalid experiment tolerance {tolerance:?}"));
     }
-    crate::model::params::validate(&s.params)
-        .map_err(|e| format!("parameters in the state: {e}"))?;
+    gear_model::table::validate(&s.params).map_err(|e| format!("parameters in the state: {e}"))?;
     for info in VARIABLES.iter().filter(|v| v.causality == Causality::Input) {
         if let Some(bad) = s.inputs.get_real(info.var).filter(|x| !x.is_finite()) {
             return Err(format!(
@@ -164,7 +163,7 @@ pub fn read(r: &mut Reader) -> Result<Snapshot, String> {
 /// `rebuild` for a Model Exchange run: its mesh's configuration, and finite values.
 fn rebuild_exchange(ex: &mut Exchange, s: &Snapshot) -> Result<(), String> {
     let p = started_at(&s.params, ex.rig.static_dte);
-    let fresh = Simulation::new(&p, &s.inputs, s.start_time, s.params.rel_tol)
+    let fresh = gear_model::table::simulation(&p, &s.inputs, s.start_time, s.params.rel_tol)
         .map_err(|e| format!("parameters in the state: {e}"))?;
     if ex.rig.stats.is_some() != fresh.rig.stats.is_some() {
         return Err("the statistics in the state do not match the parameter statistics".into());
@@ -191,7 +190,7 @@ mod tests {
     use super::*;
     use crate::fmi::instance::{FmiState, SpurGearMesh};
     use crate::model::paper_rig::Ramp;
-    use crate::model::Loads;
+
     use crate::variables::{Inputs, Params};
     use fmi2_slave::instance::Saved;
 
@@ -226,7 +225,7 @@ mod tests {
             tau_B: -3.0,
             ..Inputs::default()
         };
-        let mut sim = Simulation::new(&s.params, &s.inputs, 0.0, 1e-6).unwrap();
+        let mut sim = gear_model::table::simulation(&s.params, &s.inputs, 0.0, 1e-6).unwrap();
         sim.advance(3.3e-3, &mut |_, _| {}).unwrap();
         // What fmi2GetFMUstate does before it saves (a restart point for BDF).
         sim.make_restart_point_if_needed();
@@ -256,7 +255,7 @@ mod tests {
             rate: [250.0, 0.0, 0.0, 0.0],
             curvature: [0.0, -40.0, 0.0, 0.0],
         };
-        let loads = Loads::new(&s.params, &s.inputs);
+        let loads = gear_model::table::loads(&s.params, &s.inputs);
         let sim = s.sim.as_mut().unwrap();
         sim.set_loads(loads, Some(s.extra));
         sim.advance(4e-3, &mut |_, _| {}).unwrap();

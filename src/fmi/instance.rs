@@ -42,7 +42,7 @@ pub type SpurGearMesh = rig_fmu::RigInstance<MeshRig>;
 pub type Snapshot = rig_fmu::Snapshot<MeshRig>;
 
 fn loads(s: &Snapshot) -> Loads {
-    Loads::new(&s.params, &s.inputs)
+    gear_model::table::loads(&s.params, &s.inputs)
 }
 
 fn active_ramp(s: &Snapshot) -> Option<Ramp> {
@@ -83,17 +83,17 @@ impl Rig for MeshRig {
     }
 
     fn validate(p: &Params) -> Result<(), String> {
-        crate::model::params::validate(p).map_err(|e| e.message)
+        gear_model::table::validate(p).map_err(|e| e.message)
     }
 
     fn build(s: &Snapshot, rel_tol: f64, _: &()) -> Result<Simulation, String> {
         let solved = match s.params.static_start {
-            true => Some(static_dte_start(&s.params, &s.inputs).map_err(|e| e.message)?),
+            true => Some(static_start(s)?),
             false => None,
         };
         let p = started_at(&s.params, solved);
-        let mut sim =
-            Simulation::new(&p, &s.inputs, s.start_time, rel_tol).map_err(|e| e.message)?;
+        let mut sim = gear_model::table::simulation(&p, &s.inputs, s.start_time, rel_tol)
+            .map_err(|e| e.message)?;
         sim.rig.static_dte = solved;
         if let Some(stop) = s.stop_time {
             sim.set_stop_time(stop);
@@ -224,6 +224,12 @@ impl Rig for MeshRig {
     fn decode(r: &mut Reader) -> Result<Snapshot, String> {
         fmu_state::read(r)
     }
+}
+
+/// The dte_start at which the start loads balance (parameter `static_start`).
+fn static_start(s: &Snapshot) -> Result<f64, String> {
+    let spec = gear_model::table::rig(&s.params).map_err(|e| e.message)?;
+    static_dte_start(&spec, &loads(s)).map_err(|e| e.message)
 }
 
 /// The parameters with the dte_start a static start solved for, if any.

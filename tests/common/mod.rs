@@ -1,8 +1,8 @@
 //! Helpers shared by the integration tests.
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::fmi::outputs::outputs;
 use spur_gear_mesh::model::geometry::Geometry;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Outputs, Params};
 use std::f64::consts::PI;
 
@@ -22,7 +22,7 @@ pub fn static_delta(n: f64, g: &Geometry) -> f64 {
 // Not every test file that shares this module runs scenes.
 #[allow(dead_code)]
 pub fn run(p: &Params, i: &Inputs, rtol: f64, h: f64, t_end: f64) -> Vec<Outputs> {
-    let mut sim = Simulation::new(p, i, 0.0, rtol).unwrap();
+    let mut sim = table::simulation(p, i, 0.0, rtol).unwrap();
     let n = (t_end / h).round() as usize;
     (1..=n)
         .map(|k| {

@@ -195,13 +195,19 @@ pub fn spec(p: &Params, inputs: &Inputs) -> Result<TrainSpec, String> {
     }
     let mut meshes = Vec::with_capacity(nm);
     for m in 1..=nm {
+        // The pair checked as the single mesh checks it, named as the train's mesh.
+        let single = mesh_params(p, m);
+        let pair = gear_model::table::validate(&single)
+            .and_then(|()| gear_model::table::pair(&single))
+            .map_err(|e| format!("mesh[{m}]: {}", e.message))?;
         meshes.push(MeshPlace {
             a: body_index(format!("mesh[{m}].A"))?,
             b: body_index(format!("mesh[{m}].B"))?,
             center_angle: real(p, &format!("mesh[{m}].center_angle")),
             mount_a: real(p, &format!("mesh[{m}].mount_A")),
             mount_b: real(p, &format!("mesh[{m}].mount_B")),
-            params: mesh_params(p, m),
+            pair,
+            dte_start: single.dte_start,
         });
     }
     Ok(TrainSpec {

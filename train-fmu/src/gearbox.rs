@@ -354,7 +354,7 @@ fn start_speeds(g: &Gearbox, p: &Params, inputs: &Inputs) -> Result<Vec<f64>, St
     let st = spec.structure().map_err(|e| e.message)?;
     let mut rows: Vec<(String, Row)> = Vec::new();
     for m in 0..spec.meshes.len() {
-        let geo = Geometry::new(&spec.meshes[m].params)
+        let geo = Geometry::new(&spec.meshes[m].pair)
             .map_err(|e| format!("mesh[{}]: {}", m + 1, e.message))?;
         rows.push((format!("mesh[{}]", m + 1), mesh_row(&spec, &st, &geo, m)));
     }

@@ -83,7 +83,7 @@ fn damping_ratio_sets_chi_for_the_mesh_mode() {
     let mut stepped = loads.clone();
     stepped.tau = vec![55.0, -110.0];
     let settled = static_start(spec, &stepped).unwrap();
-    let dte_end = settled.meshes[0].params.dte_start;
+    let dte_end = settled.meshes[0].dte_start;
     let f1 = 55.0 / g.r_ab;
     sim.set_loads(stepped);
     let omega_guess = (k_mean / m_eq).sqrt();

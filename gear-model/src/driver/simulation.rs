@@ -3,10 +3,9 @@
 
 use super::{Driver, DriverError, EventOutcome, Method, System, Tolerance};
 use crate::model::mesh::{EventReport, LawOutOfRange};
-use crate::model::paper_rig::{Ramp, CONTROLLED};
+use crate::model::paper_rig::{Ramp, RigSpec, CONTROLLED};
 use crate::model::statistics::Statistics;
 use crate::model::{Loads, ModelError, PaperRig, State};
-use crate::variables::{Inputs, Params};
 
 impl EventOutcome for EventReport {
     fn smooth(&self) -> bool {
@@ -134,19 +133,22 @@ impl Simulation {
 }
 
 impl Simulation {
+    /// The rig of `spec` under `loads`, integrated from t0 by the method `solver` numbers
+    /// (`Method::from_solver`).
     pub fn new(
-        p: &Params,
-        inputs: &Inputs,
+        spec: &RigSpec,
+        loads: Loads,
+        solver: i32,
         t0: f64,
         rel_tol: f64,
     ) -> Result<Simulation, ModelError> {
-        let (mut rig, mut y0) = PaperRig::new(p, inputs)?;
+        let (mut rig, mut y0) = PaperRig::new(spec, loads)?;
         y0[crate::model::paper_rig::TIME] = 0.0;
         if let Some(s) = rig.stats.as_mut() {
             s.start -= t0;
         }
         let tol = tolerance(&rig, rel_tol);
-        let driver = Driver::new(Method::from_solver(p.solver), tol, super::since(t0, t0), y0);
+        let driver = Driver::new(Method::from_solver(solver), tol, super::since(t0, t0), y0);
         Ok(Simulation {
             rig,
             driver,

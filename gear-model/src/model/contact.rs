@@ -201,7 +201,7 @@ pub fn wrap_into_window(g: &Geometry, sigma: f64, dir: f64, theta_a: f64) -> f64
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::variables::Params;
+    use crate::model::pair::Pair;
 
     #[test]
     fn event_numbering_round_trips() {
@@ -214,7 +214,7 @@ mod tests {
     /// penetration -backlash when the forward one is 0 (the thickness closure of spec §2).
     #[test]
     fn initial_objects_match_the_spec() {
-        let g = Geometry::new(&Params::default()).unwrap();
+        let g = Geometry::new(&Pair::paper()).unwrap();
         let s = initial_sigmas(&g);
         let phi_a_f1 = 0.0507841740222036;
         assert!((g.r_ab * (g.alpha_w - phi_a_f1) - s[0]).abs() < 1e-15);
@@ -230,7 +230,7 @@ mod tests {
         let sa = g.r_ab * (g.alpha_w + phi_a_b1);
         let sb = g.r_bb * (g.alpha_w - std::f64::consts::PI + phi_b_b1);
         assert!((sa - s[2]).abs() < 1e-15);
-        let backlash = Params::default().backlash;
+        let backlash = Pair::paper().backlash;
         assert!(
             (sa + sb - g.l + backlash).abs() < 1e-14,
             "backward penetration is -backlash"
@@ -246,7 +246,7 @@ mod tests {
 
     #[test]
     fn wrapping_moves_by_whole_jumps() {
-        let g = Geometry::new(&Params::default()).unwrap();
+        let g = Geometry::new(&Pair::paper()).unwrap();
         let span = g.m_c as f64 * g.p_b;
         for theta in [-3.0, -0.1, 0.0, 0.2, 7.5] {
             for dir in [1.0, -1.0] {

@@ -9,8 +9,8 @@
 
 use super::contact::Flank;
 use super::geometry::Geometry;
+use super::pair::{Pair, ReliefShape};
 use super::ModelError;
-use crate::variables::Params;
 
 /// Tip relief of one wheel: `amount` removed at its tip, over `length` of the line of action.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,8 +25,7 @@ pub struct Relief {
 pub struct Deviations {
     /// Tip relief of A and of B.
     pub relief: [Option<Relief>; 2],
-    /// Exponent of the relief: 1 linear, 2 parabolic.
-    pub shape: i32,
+    pub shape: ReliefShape,
     pub ecc: [f64; 2],
     pub ecc_phase: [f64; 2],
     pub pitch: [Vec<f64>; 2],
@@ -42,50 +41,20 @@ pub struct Offset {
 
 pub const WHEEL: [&str; 2] = ["A", "B"];
 
-/// Parses a pitch-deviation string: comma-separated finite numbers, or empty. `count`, when
-/// given, is the number of teeth it must list.
-pub fn parse_pitch_errors(name: &str, text: &str, count: Option<i32>) -> Result<Vec<f64>, String> {
-    if text.trim().is_empty() {
-        return Ok(Vec::new());
-    }
-    let mut values = Vec::new();
-    for (i, item) in text.split(',').enumerate() {
-        let item = item.trim();
-        let x: f64 = item.parse().map_err(|_| {
-            format!(
-                "parameter {name}: entry {} ('{item}') is not a number",
-                i + 1
-            )
-        })?;
-        if !x.is_finite() {
-            return Err(format!(
-                "parameter {name}: entry {} ('{item}') is not finite",
-                i + 1
-            ));
-        }
-        values.push(x);
-    }
-    if let Some(z) = count {
-        if values.len() != z as usize {
-            return Err(format!(
-                "parameter {name}: {} entries, but the wheel has {z} teeth (one per tooth, or none)",
-                values.len()
-            ));
-        }
-    }
-    Ok(values)
-}
-
 impl Deviations {
     /// The deviations the parameters ask for; None when there are none (the mesh then costs
     /// what it did without them).
-    pub fn from_params(p: &Params, g: &Geometry) -> Result<Option<Deviations>, ModelError> {
-        let pitch = [
-            parse_pitch_errors("pitch_errors_A", &p.pitch_errors_A, Some(p.zA)),
-            parse_pitch_errors("pitch_errors_B", &p.pitch_errors_B, Some(p.zB)),
-        ];
-        let [pa, pb] = pitch;
-        let pitch = [pa.map_err(ModelError::new)?, pb.map_err(ModelError::new)?];
+    pub fn new(p: &Pair, g: &Geometry) -> Result<Option<Deviations>, ModelError> {
+        for (w, gear) in [&p.a, &p.b].into_iter().enumerate() {
+            let n = gear.pitch_errors.len();
+            if n != 0 && n != gear.z as usize {
+                return Err(ModelError::new(format!(
+                    "parameter pitch_errors_{}: {n} entries, but the wheel has {} teeth (one per tooth, or none)",
+                    WHEEL[w], gear.z
+                )));
+            }
+        }
+        let pitch = [p.a.pitch_errors.clone(), p.b.pitch_errors.clone()];
         let relief = |amount: f64, length: f64, start: f64| {
             (amount > 0.0 && length > 0.0).then_some(Relief {
                 amount,
@@ -94,7 +63,7 @@ impl Deviations {
             })
         };
         let segment = g.s_b - g.s_a;
-        for (w, length) in [(0, p.tip_relief_length_A), (1, p.tip_relief_length_B)] {
+        for (w, length) in [(0, p.a.tip_relief_length), (1, p.b.tip_relief_length)] {
             if length > segment {
                 return Err(ModelError::new(format!(
                     "parameter tip_relief_length_{} = {length} m: longer than the contact segment |ab| = {segment} m",
@@ -105,19 +74,19 @@ impl Deviations {
         let d = Deviations {
             relief: [
                 relief(
-                    p.tip_relief_A,
-                    p.tip_relief_length_A,
-                    g.s_b - p.tip_relief_length_A,
+                    p.a.tip_relief,
+                    p.a.tip_relief_length,
+                    g.s_b - p.a.tip_relief_length,
                 ),
                 relief(
-                    p.tip_relief_B,
-                    p.tip_relief_length_B,
-                    g.s_a + p.tip_relief_length_B,
+                    p.b.tip_relief,
+                    p.b.tip_relief_length,
+                    g.s_a + p.b.tip_relief_length,
                 ),
             ],
-            shape: p.tip_relief_shape,
-            ecc: [p.ecc_A, p.ecc_B],
-            ecc_phase: [p.ecc_phase_A, p.ecc_phase_B],
+            shape: p.relief_shape,
+            ecc: [p.a.ecc, p.b.ecc],
+            ecc_phase: [p.a.ecc_phase, p.b.ecc_phase],
             pitch,
             alpha_w: g.alpha_w,
         };
@@ -153,7 +122,7 @@ impl Deviations {
         } else {
             ((r.start - s) / r.length, -1.0 / r.length)
         };
-        if self.shape == 2 {
+        if self.shape == ReliefShape::Parabolic {
             (
                 -r.amount * x * x,
                 -2.0 * r.amount * x * dx,
@@ -202,40 +171,31 @@ impl Deviations {
 mod tests {
     use super::*;
 
-    fn with(f: impl FnOnce(&mut Params)) -> (Deviations, Geometry) {
-        let mut p = Params::default();
+    fn with(f: impl FnOnce(&mut Pair)) -> (Deviations, Geometry) {
+        let mut p = Pair::paper();
         f(&mut p);
         let g = Geometry::new(&p).unwrap();
-        (Deviations::from_params(&p, &g).unwrap().unwrap(), g)
+        (Deviations::new(&p, &g).unwrap().unwrap(), g)
     }
 
     #[test]
-    fn pitch_strings_are_parsed_with_their_positions_named() {
-        assert_eq!(parse_pitch_errors("x", " ", Some(3)), Ok(vec![]));
-        assert_eq!(
-            parse_pitch_errors("x", "1e-6, -2e-6 ,0", Some(3)),
-            Ok(vec![1e-6, -2e-6, 0.0])
-        );
-        let e = parse_pitch_errors("pitch_errors_A", "1e-6, abc, 0", Some(3)).unwrap_err();
-        assert!(e.contains("pitch_errors_A") && e.contains("entry 2") && e.contains("abc"));
-        let e = parse_pitch_errors("pitch_errors_B", "1e-6,inf", None).unwrap_err();
-        assert!(e.contains("entry 2") && e.contains("not finite"));
-        let e = parse_pitch_errors("pitch_errors_B", "1,2", Some(3)).unwrap_err();
-        assert!(e.contains("2 entries") && e.contains("3 teeth"));
-        assert!(parse_pitch_errors("x", "1,,2", None)
-            .unwrap_err()
-            .contains("entry 2"));
+    fn a_pitch_list_needs_one_entry_per_tooth() {
+        let mut p = Pair::paper();
+        p.b.pitch_errors = vec![1e-6, 2e-6];
+        let g = Geometry::new(&p).unwrap();
+        let e = Deviations::new(&p, &g).unwrap_err().message;
+        assert!(e.contains("pitch_errors_B") && e.contains("2 entries") && e.contains("33 teeth"));
     }
 
     #[test]
     fn tip_relief_reaches_its_amount_at_each_tip() {
-        for shape in [1, 2] {
+        for shape in [ReliefShape::Linear, ReliefShape::Parabolic] {
             let (d, g) = with(|p| {
-                p.tip_relief_A = 1e-5;
-                p.tip_relief_length_A = 2e-3;
-                p.tip_relief_B = 2e-5;
-                p.tip_relief_length_B = 1e-3;
-                p.tip_relief_shape = shape;
+                p.a.tip_relief = 1e-5;
+                p.a.tip_relief_length = 2e-3;
+                p.b.tip_relief = 2e-5;
+                p.b.tip_relief_length = 1e-3;
+                p.relief_shape = shape;
             });
             // x = 1 at the tip up to the rounding of (s_b - start) / length.
             assert!((d.relief(0, g.s_b, true).0 + 1e-5).abs() < 1e-19);
@@ -258,10 +218,10 @@ mod tests {
     #[test]
     fn runout_is_a_sinusoid_with_consistent_rates() {
         let (d, _) = with(|p| {
-            p.ecc_A = 3e-6;
-            p.ecc_phase_A = 0.4;
-            p.ecc_B = 1e-6;
-            p.ecc_phase_B = -1.0;
+            p.a.ecc = 3e-6;
+            p.a.ecc_phase = 0.4;
+            p.b.ecc = 1e-6;
+            p.b.ecc_phase = -1.0;
         });
         for f in [Flank::Forward, Flank::Backward] {
             let (lo, hi) = (0..3600).fold((f64::MAX, f64::MIN), |(lo, hi), i| {
@@ -294,10 +254,7 @@ mod tests {
     #[test]
     fn pitch_offsets_follow_the_teeth_and_flank() {
         let (d, _) = with(|p| {
-            p.pitch_errors_A = (0..22)
-                .map(|k| format!("{}e-7", k))
-                .collect::<Vec<_>>()
-                .join(",");
+            p.a.pitch_errors = (0..22).map(|k| k as f64 * 1e-7).collect();
         });
         assert_eq!(d.pitch_offset(Flank::Forward, (3, 0)), 3e-7);
         assert_eq!(d.pitch_offset(Flank::Backward, (3, 5)), -3e-7);
@@ -307,15 +264,12 @@ mod tests {
 
     #[test]
     fn nothing_asked_is_none() {
-        let p = Params::default();
+        let mut p = Pair::paper();
         let g = Geometry::new(&p).unwrap();
-        assert!(Deviations::from_params(&p, &g).unwrap().is_none());
-        let p = Params {
-            tip_relief_A: 1e-5,
-            ..Params::default()
-        };
+        assert!(Deviations::new(&p, &g).unwrap().is_none());
+        p.a.tip_relief = 1e-5;
         assert!(
-            Deviations::from_params(&p, &g).unwrap().is_none(),
+            Deviations::new(&p, &g).unwrap().is_none(),
             "no length, no relief"
         );
     }

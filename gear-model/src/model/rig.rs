@@ -4,7 +4,6 @@
 
 use super::contact::Flank;
 use super::ModelError;
-use crate::variables::Params;
 
 /// B's bearing on the slider S: a spring along O_A O_B (small displacements, spec §3).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -18,22 +17,17 @@ pub struct Slider {
 }
 
 impl Slider {
-    /// The slider of the parameters; `None` when slider_stiffness = 0 (B's bearing is rigid).
-    pub fn from_params(p: &Params) -> Result<Option<Slider>, ModelError> {
-        if p.slider_stiffness == 0.0 {
+    /// The slider of stiffness k, damping c and mass m; `None` when k = 0 (B's bearing is rigid).
+    pub fn new(k: f64, c: f64, m: f64) -> Result<Option<Slider>, ModelError> {
+        if k == 0.0 {
             return Ok(None);
         }
-        if !(p.slider_mass > 0.0) {
+        if !(m > 0.0) {
             return Err(ModelError::new(format!(
-                "parameter slider_mass = {}: must be > 0 with a slider (slider_stiffness = {})",
-                p.slider_mass, p.slider_stiffness
+                "parameter slider_mass = {m}: must be > 0 with a slider (slider_stiffness = {k})"
             )));
         }
-        Ok(Some(Slider {
-            k: p.slider_stiffness,
-            c: p.slider_damping,
-            m: p.slider_mass,
-        }))
+        Ok(Some(Slider { k, c, m }))
     }
 
     /// Natural frequency of the slider on its spring alone \[rad/s\].

@@ -148,17 +148,14 @@ pub fn single_pair_peak(law: &dyn ContactLaw, g: &Geometry, w: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::model::law::JohnsonLaw;
-    use crate::variables::Params;
+    use crate::model::pair::Pair;
 
     /// With Johnson's law (independent of position) two pairs share W equally: the balance
     /// with two pairs is the single-pair balance at W/2, and the single-pair stiffness is the
     /// same everywhere on the segment.
     /// The standard pair with Johnson's law at 300 N/mm.
     fn johnson_pair() -> (Geometry, JohnsonLaw, f64) {
-        let p = Params {
-            geometry: 2,
-            ..Params::default()
-        };
+        let p = Pair::standard();
         let g = Geometry::new(&p).unwrap();
         let law = JohnsonLaw::new(g.l, g.kappa, g.e_star, p.width);
         (g, law, 3e5 * p.width)

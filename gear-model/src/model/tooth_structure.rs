@@ -16,9 +16,9 @@ use super::contact_law::ContactLaw;
 use super::geometry::Geometry;
 use super::johnson::OutOfRange;
 use super::lower_branch;
+use super::pair::{Gear, Pair, Rack};
 use super::piecewise::PiecewiseFit;
 use super::ModelError;
-use crate::variables::Params;
 use std::f64::consts::PI;
 
 /// Sainsot et al. (2004), table 1: X* = A/theta_f^2 + B h_f^2 + C h_f/theta_f + D/theta_f +
@@ -281,25 +281,25 @@ pub fn force(delta: f64, ln_c: f64, width: f64, e_star: f64) -> Option<f64> {
     w.is_finite().then(|| -pbe_delta / w)
 }
 
-/// Contact model 3 for the parameters (standard geometry only, checked by `validate`).
-pub fn structure_law(p: &Params, g: &Geometry) -> Result<StructureLaw, ModelError> {
-    let wheel = |z: i32, shift, r_bore, e, nu, name| {
+/// Contact model 3 for a pair cut by `rack` (the standard geometry).
+pub fn structure_law(p: &Pair, rack: &Rack, g: &Geometry) -> Result<StructureLaw, ModelError> {
+    let wheel = |gear: &Gear, name| {
         let d = WheelData {
-            z: z as f64,
-            shift,
-            module: p.module,
-            alpha_0: p.pressure_angle,
-            dedendum: p.dedendum,
-            rack_tip_radius: p.rack_tip_radius,
-            r_bore,
-            e,
-            nu,
+            z: gear.z as f64,
+            shift: gear.x,
+            module: rack.module,
+            alpha_0: rack.pressure_angle,
+            dedendum: rack.dedendum,
+            rack_tip_radius: rack.tip_radius,
+            r_bore: gear.bore_radius,
+            e: gear.e,
+            nu: gear.nu,
         };
         Wheel::new(&d, name)
     };
     let structure = Structure {
-        a: wheel(p.zA, p.xA, p.bore_radius_A, p.E_A, p.nu_A, "A")?,
-        b: wheel(p.zB, p.xB, p.bore_radius_B, p.E_B, p.nu_B, "B")?,
+        a: wheel(&p.a, "A")?,
+        b: wheel(&p.b, "B")?,
         width: p.width,
         e_star: g.e_star,
         l: g.l,
@@ -639,13 +639,12 @@ mod tests {
     /// against a central difference of the quadrature).
     #[test]
     fn tabulated_force_matches_the_closed_form() {
-        let p = Params {
-            geometry: 2,
-            contact_model: 3,
-            ..Params::default()
+        let p = Pair {
+            law: crate::model::pair::MeshLaw::ToothStructure,
+            ..Pair::standard()
         };
         let g = Geometry::new(&p).unwrap();
-        let law = structure_law(&p, &g).unwrap();
+        let law = structure_law(&p, p.rack().unwrap(), &g).unwrap();
         let st = &law.structure;
         let mut checked = 0;
         for i in 0..=50 {

@@ -3,8 +3,8 @@
 //! pinion in a ring), give the gears and their nominal operating geometry; the operating
 //! geometry then follows from the actual centre distance, which is how every pair gets it.
 
+use super::pair::{Cut, Pair, PaperCut, Rack};
 use super::ModelError;
-use crate::variables::Params;
 use std::f64::consts::PI;
 
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -76,7 +76,7 @@ fn inv_inverse(target: f64) -> Option<f64> {
 
 impl Geometry {
     /// The pair at its nominal centre distance plus `center_distance_error`.
-    pub fn new(p: &Params) -> Result<Geometry, ModelError> {
+    pub fn new(p: &Pair) -> Result<Geometry, ModelError> {
         Self::at_distance(p, None)
     }
 
@@ -84,25 +84,19 @@ impl Geometry {
     /// `center_distance_error` (planetary.md §2). The gears (base and tip radii, base tooth
     /// thicknesses with the `backlash` parameter) are those of the front end at the nominal
     /// distance; alpha_w, L, the contact segment and the backlash follow from the actual one.
-    pub fn at_distance(p: &Params, axes: Option<f64>) -> Result<Geometry, ModelError> {
-        let e_star = 1.0 / ((1.0 - p.nu_A * p.nu_A) / p.E_A + (1.0 - p.nu_B * p.nu_B) / p.E_B);
-        let (z_a, z_b) = (p.zA as f64, p.zB as f64);
+    pub fn at_distance(p: &Pair, axes: Option<f64>) -> Result<Geometry, ModelError> {
+        let (a, b) = (&p.a, &p.b);
+        let e_star = 1.0 / ((1.0 - a.nu * a.nu) / a.e + (1.0 - b.nu * b.nu) / b.e);
+        let (z_a, z_b) = (a.z as f64, b.z as f64);
         let (d_a, d_b) = (2.0 * PI / z_a, 2.0 * PI / z_b);
-        let mut g = match (p.geometry, p.internal) {
-            (1, false) => Self::paper(p, e_star)?,
-            (1, true) => {
+        let mut g = match (&p.cut, p.internal) {
+            (Cut::Paper(c), false) => Self::paper(p, c, e_star)?,
+            (Cut::Paper(_), true) => {
                 return Err(ModelError::new(
                     "parameter internal = true: an internal pair needs standard gear data (geometry = 2); the paper geometry is the article's external pair".into(),
                 ))
             }
-            (2, _) => Self::standard(p, e_star)?,
-            (other, _) => {
-                return Err(ModelError::parameter(
-                    "geometry",
-                    other,
-                    "must be 1 (paper) or 2 (standard gear data)",
-                ))
-            }
+            (Cut::Standard(r), _) => Self::standard(p, r, e_star)?,
         };
         g.z_a = z_a;
         g.z_b = z_b;
@@ -133,7 +127,7 @@ impl Geometry {
         let needed = (g.eps - 1e-9).ceil() as usize;
         g.m_c = match p.contacts_per_flank {
             0 => needed,
-            m if (m as usize) < needed => {
+            m if m < needed => {
                 return Err(ModelError::parameter(
                     "contacts_per_flank",
                     m,
@@ -143,7 +137,7 @@ impl Geometry {
                     ),
                 ))
             }
-            m => m as usize,
+            m => m,
         };
         g.check_teeth(p)?;
         if g.internal {
@@ -157,7 +151,7 @@ impl Geometry {
     /// The operating geometry at centre distance d (planetary.md §2): d cos(alpha_w) is
     /// rAb + rBb (external) or rBb - rAb (internal), whatever d is; the backlash follows from
     /// the thickness closure at the new alpha_w.
-    fn operate(&mut self, d: f64, p: &Params) -> Result<(), ModelError> {
+    fn operate(&mut self, d: f64, p: &Pair) -> Result<(), ModelError> {
         let base = self.r_bb + self.kappa * self.r_ab;
         if !(d > base) {
             return Err(ModelError::parameter(
@@ -197,7 +191,7 @@ impl Geometry {
 
     /// The contact segment lies where both flanks are involutes: external, on the line of
     /// action [0, L]; internal, from K_A on (the ring's tangent point lies behind K_A).
-    fn check_segment(&self, p: &Params) -> Result<(), ModelError> {
+    fn check_segment(&self, p: &Pair) -> Result<(), ModelError> {
         let (s_a, s_b, l) = (self.s_a, self.s_b, self.l);
         if self.internal && s_a < 0.0 {
             return Err(ModelError::new(format!(
@@ -222,28 +216,28 @@ impl Geometry {
     }
 
     /// The gear data, for messages.
-    fn shape(&self, p: &Params) -> String {
-        match p.geometry {
-            1 => format!(
+    fn shape(&self, p: &Pair) -> String {
+        match &p.cut {
+            Cut::Paper(c) => format!(
                 "alpha_factor = {}, zA = {}, zB = {}, backlash = {}",
-                p.alpha_factor, p.zA, p.zB, p.backlash
+                c.alpha_factor, p.a.z, p.b.z, p.backlash
             ),
-            _ => format!(
+            Cut::Standard(r) => format!(
                 "{}module = {}, zA = {}, zB = {}, xA = {}, xB = {}, addendum = {}, backlash = {}",
                 if p.internal { "internal, " } else { "" },
-                p.module,
-                p.zA,
-                p.zB,
-                p.xA,
-                p.xB,
-                p.addendum,
+                r.module,
+                p.a.z,
+                p.b.z,
+                p.a.x,
+                p.b.x,
+                r.addendum,
                 p.backlash
             ),
         }
     }
 
     /// Where the axes are, for messages when they are not at the nominal distance.
-    fn where_placed(&self, p: &Params) -> String {
+    fn where_placed(&self, p: &Pair) -> String {
         if self.d == self.d_nominal {
             String::new()
         } else {
@@ -260,26 +254,26 @@ impl Geometry {
     /// An involute tooth whose angular thickness on the base circle is t has the angular
     /// thickness t - 2 inv(alpha_r) on the circle of radius r, cos(alpha_r) = r_b/r; a ring's
     /// tooth is the complement of an external tooth space, t + 2 inv(alpha_r).
-    fn check_teeth(&mut self, p: &Params) -> Result<(), ModelError> {
+    fn check_teeth(&mut self, p: &Pair) -> Result<(), ModelError> {
         let thickness = |t: f64, r_b: f64, r: f64, ring: bool| {
             let sign = if ring { 1.0 } else { -1.0 };
             r * (t + sign * 2.0 * inv((r_b / r).min(1.0).acos()))
         };
         let shape = self.shape(p);
-        let module = match p.geometry {
+        let module = match p.rack() {
             // The operating module: the base pitch over pi cos(alpha_w).
-            1 => self.p_b / (PI * self.alpha_w.cos()),
-            _ => p.module,
+            None => self.p_b / (PI * self.alpha_w.cos()),
+            Some(r) => r.module,
         };
         for (wheel, t, r_b, r_tip, z, x, ring) in [
-            ("A", self.t_a, self.r_ab, self.r_tip_a, p.zA, p.xA, false),
+            ("A", self.t_a, self.r_ab, self.r_tip_a, p.a.z, p.a.x, false),
             (
                 "B",
                 self.t_b,
                 self.r_bb,
                 self.r_tip_b,
-                p.zB,
-                p.xB,
+                p.b.z,
+                p.b.x,
                 self.internal,
             ),
         ] {
@@ -311,13 +305,13 @@ impl Geometry {
             }
             // A ring is cut by a pinion-type cutter, not a rack: its involute reaches down to
             // the tip circle whatever the shift, so only external gears are checked here.
-            if p.geometry == 2 && !ring {
+            if let (Some(rack), false) = (p.rack(), ring) {
                 // ISO 53 profile A: the cutter's straight flank ends (1.25 - 0.38 (1 - sin a0))
                 // modules above the datum line, where the generated involute begins: at the roll
                 // distance r sin(a0) - (h - x) m / sin(a0) from the base circle's tangent point.
-                let a0 = p.pressure_angle;
+                let (m, a0) = (rack.module, rack.pressure_angle);
                 let h = 1.25 - 0.38 * (1.0 - a0.sin());
-                let start = p.module * z as f64 / 2.0 * a0.sin() - (h - x) * p.module / a0.sin();
+                let start = m * z as f64 / 2.0 * a0.sin() - (h - x) * m / a0.sin();
                 let lowest = if wheel == "A" {
                     self.s_a
                 } else {
@@ -341,31 +335,32 @@ impl Geometry {
         Ok(())
     }
 
-    fn paper(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
-        if p.zA as i64 * p.zB_nominal as i64 != p.zB as i64 * p.zA_nominal as i64 {
+    fn paper(p: &Pair, c: &PaperCut, e_star: f64) -> Result<Geometry, ModelError> {
+        let [za_nominal, zb_nominal] = c.z_nominal;
+        if p.a.z as i64 * zb_nominal as i64 != p.b.z as i64 * za_nominal as i64 {
             return Err(ModelError::new(format!(
                 "tooth ratio zB/zA = {}/{} differs from the nominal ratio zB_nominal/zA_nominal = {}/{}",
-                p.zB, p.zA, p.zB_nominal, p.zA_nominal
+                p.b.z, p.a.z, zb_nominal, za_nominal
             )));
         }
-        let n = p.zB_nominal as f64 / p.zA_nominal as f64;
-        let (r_a, r_b) = (p.rA, n * p.rA);
+        let n = zb_nominal as f64 / za_nominal as f64;
+        let (r_a, r_b) = (c.r_a, n * c.r_a);
         let d = r_a + r_b;
-        let alpha_inf = (2.0 * PI / (p.zA_nominal as f64 * (1.0 + n))).atan();
-        let alpha_w = p.alpha_factor * alpha_inf;
+        let alpha_inf = (2.0 * PI / (za_nominal as f64 * (1.0 + n))).atan();
+        let alpha_w = c.alpha_factor * alpha_inf;
         if alpha_w >= PI / 2.0 {
             return Err(ModelError::parameter(
                 "alpha_factor",
-                p.alpha_factor,
+                c.alpha_factor,
                 &format!("alpha_w = alpha_factor*{alpha_inf} must lie in (alpha_inf, pi/2)"),
             ));
         }
         let (r_ab, r_bb) = (r_a * alpha_w.cos(), r_b * alpha_w.cos());
         let l = d * alpha_w.sin();
-        let ab = r_ab * 2.0 * PI / p.zA_nominal as f64;
+        let ab = r_ab * 2.0 * PI / za_nominal as f64;
         let s_a = (l - ab) / 2.0;
         let s_b = s_a + ab;
-        let p_b = r_ab * 2.0 * PI / p.zA as f64;
+        let p_b = r_ab * 2.0 * PI / p.a.z as f64;
         // Equal thickness on the operating pitch circles (radii r_a, r_b), backlash removed evenly.
         let s_w = (p_b - p.backlash) / (2.0 * alpha_w.cos());
         Ok(Geometry {
@@ -388,8 +383,8 @@ impl Geometry {
 
     /// Base thickness angle of an external gear from its reference thickness
     /// m (pi/2 + 2 x tan a0), minus its half of the backlash.
-    fn base_thickness(p: &Params, z: f64, x: f64, r_b: f64) -> f64 {
-        let (m, a0) = (p.module, p.pressure_angle);
+    fn base_thickness(p: &Pair, r: &Rack, z: f64, x: f64, r_b: f64) -> f64 {
+        let (m, a0) = (r.module, r.pressure_angle);
         m * (PI / 2.0 + 2.0 * x * a0.tan()) / (m * z / 2.0) + 2.0 * inv(a0)
             - p.backlash / (2.0 * r_b)
     }
@@ -398,40 +393,40 @@ impl Geometry {
     /// (planetary.md §1: O_B at (-d, 0) in the paper frame, the ring's tips inwards, its tooth
     /// space on the reference circle m (pi/2 + 2 xB tan a0)). With kappa = -1 for the ring, the
     /// sums of an external pair become differences.
-    fn standard(p: &Params, e_star: f64) -> Result<Geometry, ModelError> {
-        // Ranges: `validate` (the variable table).
-        let (m, a0) = (p.module, p.pressure_angle);
-        let (za, zb) = (p.zA as f64, p.zB as f64);
+    fn standard(p: &Pair, rack: &Rack, e_star: f64) -> Result<Geometry, ModelError> {
+        // Ranges: the variable table's or the gearbox file's checks.
+        let (m, a0) = (rack.module, rack.pressure_angle);
+        let (xa, xb) = (p.a.x, p.b.x);
+        let (za, zb) = (p.a.z as f64, p.b.z as f64);
         let (kappa, pair) = if p.internal {
             (-1.0, "internal pair: ")
         } else {
             (1.0, "")
         };
-        if p.internal && p.zB <= p.zA {
+        if p.internal && p.b.z <= p.a.z {
             return Err(ModelError::new(format!(
                 "{pair}the ring needs more teeth than the pinion (zA = {}, zB = {})",
-                p.zA, p.zB
+                p.a.z, p.b.z
             )));
         }
-        let inv_w = inv(a0) + 2.0 * a0.tan() * (p.xB + kappa * p.xA) / (zb + kappa * za);
+        let inv_w = inv(a0) + 2.0 * a0.tan() * (xb + kappa * xa) / (zb + kappa * za);
         let alpha_w = inv_inverse(inv_w).ok_or_else(|| {
             ModelError::new(format!(
-                "{pair}profile shifts xA = {}, xB = {} give inv(alpha_w) = {inv_w}: no operating pressure angle",
-                p.xA, p.xB
+                "{pair}profile shifts xA = {xa}, xB = {xb} give inv(alpha_w) = {inv_w}: no operating pressure angle"
             ))
         })?;
         let d = m * (zb + kappa * za) / 2.0 * a0.cos() / alpha_w.cos();
         let (r_ab, r_bb) = (m * za * a0.cos() / 2.0, m * zb * a0.cos() / 2.0);
         let l = d * alpha_w.sin();
-        let r_tip_a = m * za / 2.0 + m * (p.addendum + p.xA);
+        let r_tip_a = m * za / 2.0 + m * (rack.addendum + xa);
         // A ring's tips point inwards: its addendum counts towards its axis.
-        let r_tip_b = m * zb / 2.0 + m * (kappa * p.addendum + p.xB);
+        let r_tip_b = m * zb / 2.0 + m * (kappa * rack.addendum + xb);
         if p.internal && !(r_tip_b > r_bb) {
             return Err(ModelError::new(format!(
                 "{pair}the ring's tip circle (radius r_Ba = {r_tip_b} m) is not outside its base circle \
                  (rBb = {r_bb} m), where its involute flanks begin; raise xB or lower the addendum \
                  (module = {m}, zB = {}, xB = {}, addendum = {})",
-                p.zB, p.xB, p.addendum
+                p.b.z, xb, rack.addendum
             )));
         }
         let s_b = (r_tip_a * r_tip_a - r_ab * r_ab).max(0.0).sqrt();
@@ -439,12 +434,12 @@ impl Geometry {
         let t_b = if p.internal {
             // The ring's tooth space on its base circle (the spec's eB, widened by half the
             // backlash); its tooth is the rest of the pitch.
-            let e_b = (PI / 2.0 + 2.0 * p.xB * a0.tan()) * 2.0 / zb
+            let e_b = (PI / 2.0 + 2.0 * xb * a0.tan()) * 2.0 / zb
                 + 2.0 * inv(a0)
                 + p.backlash / (2.0 * r_bb);
             2.0 * PI / zb - e_b
         } else {
-            Self::base_thickness(p, zb, p.xB, r_bb)
+            Self::base_thickness(p, rack, zb, xb, r_bb)
         };
         Ok(Geometry {
             alpha_w,
@@ -455,7 +450,7 @@ impl Geometry {
             s_a,
             s_b,
             p_b: r_ab * 2.0 * PI / za,
-            t_a: Self::base_thickness(p, za, p.xA, r_ab),
+            t_a: Self::base_thickness(p, rack, za, xa, r_ab),
             t_b,
             r_tip_a,
             r_tip_b,

@@ -2,6 +2,26 @@
 //! centre distance.
 use super::*;
 
+fn geo(p: &Pair) -> Result<Geometry, ModelError> {
+    Geometry::new(p)
+}
+
+/// The paper's pair changed by `f`.
+fn paper(f: impl FnOnce(&mut Pair)) -> Pair {
+    let mut p = Pair::paper();
+    f(&mut p);
+    p
+}
+
+/// The paper's pair with its cut changed by `f`.
+fn paper_cut(f: impl FnOnce(&mut PaperCut)) -> Pair {
+    paper(|p| {
+        if let Cut::Paper(c) = &mut p.cut {
+            f(c)
+        }
+    })
+}
+
 /// test-vectors.md values are printed with 12-15 significant digits; each quantity here is a
 /// few floating-point operations from the inputs, so agreement to 1e-12 relative is expected.
 fn close(a: f64, b: f64) {
@@ -10,7 +30,7 @@ fn close(a: f64, b: f64) {
 
 #[test]
 fn paper_geometry_matches_test_vectors() {
-    let g = Geometry::new(&Params::default()).unwrap();
+    let g = geo(&Pair::paper()).unwrap();
     close(g.alpha_w, 0.350023621796666);
     close(g.r_ab, 0.187872922544603);
     close(g.r_bb, 0.281809383816904);
@@ -34,11 +54,7 @@ fn paper_geometry_matches_test_vectors() {
 
 #[test]
 fn zero_backlash_thickness() {
-    let p = Params {
-        backlash: 0.0,
-        ..Params::default()
-    };
-    let g = Geometry::new(&p).unwrap();
+    let g = geo(&paper(|p| p.backlash = 0.0)).unwrap();
     close(g.t_a, 0.172862951205255);
     // The vector has 14 significant digits.
     assert!((g.t_b - 0.12526306251450).abs() < 1e-13);
@@ -46,144 +62,40 @@ fn zero_backlash_thickness() {
 
 #[test]
 fn thickness_closure_holds_for_both_front_ends() {
-    for geometry in [1, 2] {
-        let p = Params {
-            geometry,
-            xA: 0.2,
-            xB: -0.1,
-            ..Params::default()
-        };
-        let g = Geometry::new(&p).unwrap();
+    for cut in [Pair::paper().cut, Pair::standard().cut] {
+        let p = paper(|p| (p.cut, p.a.x, p.b.x) = (cut, 0.2, -0.1));
+        let g = geo(&p).unwrap();
         let lhs = g.r_ab * g.t_a + g.r_bb * g.t_b;
         let rhs = g.p_b + 2.0 * g.d * g.alpha_w.cos() * inv(g.alpha_w) - p.backlash;
-        assert!(
-            (lhs - rhs).abs() < 1e-14,
-            "geometry {geometry}: {lhs} vs {rhs}"
-        );
+        assert!((lhs - rhs).abs() < 1e-14, "{cut:?}: {lhs} vs {rhs}");
     }
 }
 
 #[test]
 fn standard_geometry_of_unshifted_gears() {
-    let p = Params {
-        geometry: 2,
-        module: 0.004,
-        zA: 20,
-        zB: 40,
-        ..Params::default()
-    };
-    let g = Geometry::new(&p).unwrap();
-    close(g.alpha_w, p.pressure_angle);
+    let p = standard(20, 40, 0.0, 0.0);
+    let g = geo(&p).unwrap();
+    close(g.alpha_w, p.rack().unwrap().pressure_angle);
     close(g.d, 0.004 * 60.0 / 2.0);
     // Textbook contact ratio of a 20/40 pair, 20 deg, full-depth teeth: 1.6 to 1.7.
     assert!(g.eps > 1.6 && g.eps < 1.7, "{}", g.eps);
     assert_eq!(g.m_c, 2);
 }
 
-#[test]
-fn inconsistent_parameters_are_rejected_with_names() {
-    let cases: Vec<(Params, &str)> = vec![
-        (
-            Params {
-                zA: 21,
-                ..Params::default()
-            },
-            "tooth ratio",
-        ),
-        (
-            Params {
-                width: -1.0,
-                ..Params::default()
-            },
-            "width",
-        ),
-        (
-            Params {
-                J_A: 0.0,
-                ..Params::default()
-            },
-            "J_A",
-        ),
-        (
-            Params {
-                E_B: f64::NAN,
-                ..Params::default()
-            },
-            "E_B",
-        ),
-        (
-            Params {
-                nu_A: 0.5,
-                ..Params::default()
-            },
-            "nu_A",
-        ),
-        (
-            Params {
-                backlash: -1e-6,
-                ..Params::default()
-            },
-            "backlash",
-        ),
-        (
-            Params {
-                rA: 0.0,
-                ..Params::default()
-            },
-            "rA",
-        ),
-        (
-            Params {
-                zA: 44,
-                zB: 66,
-                ..Params::default()
-            },
-            "contact ratio",
-        ),
-        (
-            Params {
-                zA: 18,
-                zB: 27,
-                ..Params::default()
-            },
-            "contact ratio",
-        ),
-        (
-            Params {
-                contacts_per_flank: 1,
-                ..Params::default()
-            },
-            "contacts_per_flank",
-        ),
-        (
-            Params {
-                geometry: 2,
-                addendum: 3.0,
-                ..Params::default()
-            },
-            "interference",
-        ),
-    ];
-    // What a rig does: the parameters on their own, then how they fit together.
-    for (p, word) in cases {
-        let e = crate::model::params::validate(&p)
-            .and_then(|_| Geometry::new(&p))
-            .unwrap_err();
-        assert!(e.message.contains(word), "{} should name {word}", e.message);
-    }
+/// The paper's pair's materials and width, cut by an ISO 53 rack of module 4 mm.
+fn standard(za: i32, zb: i32, xa: f64, xb: f64) -> Pair {
+    paper(|p| {
+        p.cut = Cut::Standard(Rack::iso53(0.004));
+        (p.a.z, p.b.z, p.a.x, p.b.x) = (za, zb, xa, xb);
+    })
 }
 
-fn standard(za: i32, zb: i32, xa: f64, xb: f64) -> Params {
-    Params {
-        geometry: 2,
-        module: 0.004,
-        zA: za,
-        zB: zb,
-        xA: xa,
-        xB: xb,
-        pressure_angle: 20f64.to_radians(),
-        ..Params::default()
+/// A standard pair with its rack's addendum changed.
+fn with_addendum(mut p: Pair, addendum: f64) -> Pair {
+    if let Cut::Standard(r) = &mut p.cut {
+        r.addendum = addendum;
     }
+    p
 }
 
 /// Issue 9, point 5: teeth that cannot exist are rejected with their numbers, in both
@@ -195,42 +107,29 @@ fn standard(za: i32, zb: i32, xa: f64, xb: f64) -> Params {
 fn impossible_teeth_are_rejected() {
     let cases = [
         (
-            Params {
-                alpha_factor: 3.5,
-                ..Params::default()
-            },
+            paper_cut(|c| c.alpha_factor = 3.5),
             "pointed teeth",
             "alpha_factor = 3.5",
         ),
         (
-            Params {
-                zA: 40,
-                zB: 60,
-                ..Params::default()
-            },
+            paper(|p| (p.a.z, p.b.z) = (40, 60)),
             "pointed teeth",
             "zA = 40",
         ),
         (standard(10, 30, 0.8, 0.0), "pointed teeth", "xA = 0.8"),
         (
-            Params {
-                backlash: 0.06,
-                ..Params::default()
-            },
+            paper(|p| p.backlash = 0.06),
             "backlash = 0.06",
             "operating pitch circle",
         ),
         (
-            Params {
-                addendum: 1.1,
-                ..standard(20, 80, 0.0, 0.0)
-            },
+            with_addendum(standard(20, 80, 0.0, 0.0), 1.1),
             "active profile below the involute",
             "addendum = 1.1",
         ),
     ];
     for (p, what, names) in cases {
-        let e = Geometry::new(&p).unwrap_err().message;
+        let e = geo(&p).unwrap_err().message;
         assert!(e.contains(what) && e.contains(names), "{what}: {e}");
     }
 }
@@ -239,37 +138,33 @@ fn impossible_teeth_are_rejected() {
 /// unshifted pairs from 18 teeth on and the paper rig have none.
 #[test]
 fn thin_tips_are_a_warning() {
-    let g = Geometry::new(&standard(12, 40, 0.8, 0.0)).unwrap();
+    let g = geo(&standard(12, 40, 0.8, 0.0)).unwrap();
     assert!(
         g.warnings.iter().any(|w| w.contains("wheel A's tooth tip")),
         "{:?}",
         g.warnings
     );
     for p in [
-        Params::default(),
+        Pair::paper(),
         standard(18, 40, 0.0, 0.0),
         standard(30, 30, 0.0, 0.0),
     ] {
-        let g = Geometry::new(&p).unwrap();
+        let g = geo(&p).unwrap();
         assert!(g.warnings.is_empty(), "{:?}", g.warnings);
     }
 }
 
-fn internal(za: i32, zb: i32, xa: f64, xb: f64, module: f64) -> Params {
-    Params {
-        internal: true,
-        xA: xa,
-        xB: xb,
-        module,
-        ..standard(za, zb, 0.0, 0.0)
-    }
+fn internal(za: i32, zb: i32, xa: f64, xb: f64, module: f64) -> Pair {
+    let mut p = standard(za, zb, xa, xb);
+    (p.internal, p.cut) = (true, Cut::Standard(Rack::iso53(module)));
+    p
 }
 
 /// The ring front end's geometry before any check (as `at_distance` fills it in).
-fn unchecked(p: &Params) -> Geometry {
-    let mut g = Geometry::standard(p, 1.0).unwrap();
-    g.z_a = p.zA as f64;
-    g.z_b = p.zB as f64;
+fn unchecked(p: &Pair) -> Geometry {
+    let mut g = Geometry::standard(p, p.rack().unwrap(), 1.0).unwrap();
+    g.z_a = p.a.z as f64;
+    g.z_b = p.b.z as f64;
     g.d_a = 2.0 * PI / g.z_a;
     g.d_b = 2.0 * PI / g.z_b;
     g.internal = true;
@@ -288,12 +183,12 @@ fn an_unshifted_20_60_ring_interferes_at_the_pinion_root() {
     let p = internal(20, 60, 0.0, 0.0, 0.002);
     let g = unchecked(&p);
     assert!((g.s_a + 0.075e-3).abs() < 0.0005e-3, "{}", g.s_a);
-    let e = Geometry::new(&p).unwrap_err().message;
+    let e = geo(&p).unwrap_err().message;
     assert!(
         e.contains("interference at the pinion's root") && e.contains("s_a"),
         "{e}"
     );
-    let g = Geometry::new(&internal(20, 60, 0.0, 0.5, 0.002)).unwrap();
+    let g = geo(&internal(20, 60, 0.0, 0.5, 0.002)).unwrap();
     assert!(g.s_a > 0.0 && g.eps > 1.0 && g.eps < 2.0, "{g:?}");
 }
 
@@ -304,7 +199,7 @@ fn an_unshifted_20_60_ring_interferes_at_the_pinion_root() {
 fn ring_geometry_closes() {
     for (za, zb, xa, xb) in [(20, 60, 0.0, 0.5), (18, 72, 0.0, 0.6), (31, 89, 0.1, 0.6)] {
         let p = internal(za, zb, xa, xb, 0.003);
-        let g = Geometry::new(&p).unwrap();
+        let g = geo(&p).unwrap();
         let e_b = 2.0 * PI / g.z_b - g.t_b;
         let lhs = g.r_bb * e_b - g.r_ab * g.t_a;
         let rhs = 2.0 * g.d * g.alpha_w.cos() * inv(g.alpha_w) + p.backlash;
@@ -325,7 +220,7 @@ fn a_36_38_ring_has_tip_interference() {
     assert!(g.check_teeth(&p).is_ok());
     let c = crate::model::interference::smallest_clearance(&g);
     assert!(c.clearance < -0.3e-3 && c.clearance > -0.7e-3, "{c:?}");
-    let e = Geometry::new(&p).unwrap_err().message;
+    let e = geo(&p).unwrap_err().message;
     assert!(
         e.contains("tip or trochoid interference") && e.contains("zB = 38"),
         "{e}"
@@ -341,7 +236,7 @@ fn at_zero_shift_the_other_rules_refuse_what_the_tip_corners_would() {
     for za in [12, 17, 20, 25, 30, 40] {
         for diff in 1..=30 {
             let p = internal(za, za + diff, 0.0, 0.0, 0.002);
-            if Geometry::standard(&p, 1.0).is_err() {
+            if Geometry::standard(&p, p.rack().unwrap(), 1.0).is_err() {
                 continue; // the ring's tips inside its base circle: refused by a rule
             }
             let mut g = unchecked(&p);
@@ -373,9 +268,9 @@ fn moving_the_axes_apart_opens_external_and_closes_internal_backlash() {
         standard(20, 40, 0.0, 0.0),
         internal(20, 60, 0.0, 0.5, 0.004),
     ] {
-        let g0 = Geometry::new(&p).unwrap();
+        let g0 = geo(&p).unwrap();
         let at = |err: f64| {
-            Geometry::new(&Params {
+            geo(&Pair {
                 center_distance_error: err,
                 ..p.clone()
             })
@@ -405,8 +300,8 @@ fn moving_the_axes_apart_opens_external_and_closes_internal_backlash() {
 /// backlash is the parameter.
 #[test]
 fn no_error_keeps_the_nominal_geometry() {
-    for p in [Params::default(), standard(20, 40, 0.2, -0.1)] {
-        let g = Geometry::new(&p).unwrap();
+    for p in [Pair::paper(), standard(20, 40, 0.2, -0.1)] {
+        let g = geo(&p).unwrap();
         assert_eq!((g.d, g.j_n, g.kappa), (g.d_nominal, p.backlash, 1.0));
         let g2 = Geometry::at_distance(&p, Some(g.d)).unwrap();
         assert_eq!(g, g2);
@@ -418,9 +313,9 @@ fn no_error_keeps_the_nominal_geometry() {
 #[test]
 fn a_bad_centre_distance_is_refused() {
     let p = standard(20, 40, 0.0, 0.0);
-    let g = Geometry::new(&p).unwrap();
+    let g = geo(&p).unwrap();
     let jam = -1.5 * p.backlash / (2.0 * g.alpha_w.sin());
-    let e = Geometry::new(&Params {
+    let e = geo(&Pair {
         center_distance_error: jam,
         ..p.clone()
     })
@@ -430,7 +325,7 @@ fn a_bad_centre_distance_is_refused() {
         e.contains("center_distance_error") && e.contains("jams"),
         "{e}"
     );
-    let e = Geometry::new(&Params {
+    let e = geo(&Pair {
         center_distance_error: 0.003,
         ..p.clone()
     })
@@ -441,15 +336,15 @@ fn a_bad_centre_distance_is_refused() {
         "{e}"
     );
     let ring = internal(20, 60, 0.0, 0.5, 0.004);
-    let gr = Geometry::new(&ring).unwrap();
-    let e = Geometry::new(&Params {
+    let gr = geo(&ring).unwrap();
+    let e = geo(&Pair {
         center_distance_error: 1.5 * ring.backlash / (2.0 * gr.alpha_w.sin()),
         ..ring
     })
     .unwrap_err()
     .message;
     assert!(e.contains("jams"), "{e}");
-    let g = Geometry::new(&Params {
+    let g = geo(&Pair {
         center_distance_error: 50e-6,
         ..p.clone()
     })
@@ -461,18 +356,11 @@ fn a_bad_centre_distance_is_refused() {
 
 #[test]
 fn internal_needs_standard_geometry() {
-    let e = Geometry::new(&Params {
-        internal: true,
-        ..Params::default()
-    })
-    .unwrap_err()
-    .message;
+    let e = geo(&paper(|p| p.internal = true)).unwrap_err().message;
     assert!(
         e.contains("internal = true") && e.contains("geometry = 2"),
         "{e}"
     );
-    let e = Geometry::new(&internal(20, 20, 0.0, 0.3, 0.002))
-        .unwrap_err()
-        .message;
+    let e = geo(&internal(20, 20, 0.0, 0.3, 0.002)).unwrap_err().message;
     assert!(e.contains("more teeth"), "{e}");
 }

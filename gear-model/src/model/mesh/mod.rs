@@ -19,9 +19,9 @@ use super::contact::{self, slot_flank, EventFn, Flank, N_EVENTS, SLOTS};
 use super::deviations::Deviations;
 use super::geometry::Geometry;
 use super::law::{JohnsonLaw, Law};
+use super::pair::{Cut, MeshLaw, Pair};
 use super::tooth_structure::structure_law;
 use super::ModelError;
-use crate::variables::Params;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -82,7 +82,7 @@ pub struct Coefficients {
 }
 
 impl Coefficients {
-    pub fn new(p: &Params) -> Coefficients {
+    pub fn new(p: &Pair) -> Coefficients {
         Coefficients {
             chi: p.chi,
             mu: p.mu,
@@ -169,42 +169,41 @@ impl std::ops::Deref for GearMesh {
 impl GearMesh {
     /// Builds the mesh from one pair's parameters and where its teeth start; `slider`: the rig
     /// moves B's bearing. The recorded signs are set by `init_signs` once the rig has a state.
-    pub fn new(p: &Params, placement: Placement, slider: bool) -> Result<GearMesh, ModelError> {
+    pub fn new(p: &Pair, placement: Placement, slider: bool) -> Result<GearMesh, ModelError> {
         Self::with_geometry(p, Geometry::new(p)?, placement, slider)
     }
 
     /// The same with the pair's geometry at hand (a planet's, at the distance its axes are).
     pub fn with_geometry(
-        p: &Params,
+        p: &Pair,
         mut geo: Geometry,
         placement: Placement,
         slider: bool,
     ) -> Result<GearMesh, ModelError> {
-        let law = match p.contact_model {
-            2 => ContactModel::Rigid {
+        let law = match p.law {
+            MeshLaw::Rigid => ContactModel::Rigid {
                 restitution: p.restitution,
                 two_sided: geo.j_n == 0.0 && !slider && p.backward_contacts,
             },
-            3 if geo.internal => {
+            MeshLaw::ToothStructure if geo.internal => {
                 return Err(ModelError::new(
                     "parameter contact_model = 3: the tooth structure is not available for an internal pair yet (the ring tooth's structure is not specified); use contact_model 1 or 2".into(),
                 ))
             }
-            3 => {
-                if p.geometry != 2 {
-                    return Err(ModelError::new(format!(
-                        "parameter contact_model = 3: the tooth structure needs the standard geometry (geometry = 2, not {})",
-                        p.geometry
-                    )));
-                }
-                let law = structure_law(p, &geo)?;
+            MeshLaw::ToothStructure => {
+                let Cut::Standard(rack) = &p.cut else {
+                    return Err(ModelError::new(
+                        "parameter contact_model = 3: the tooth structure needs the standard geometry (geometry = 2, not 1)".into(),
+                    ));
+                };
+                let law = structure_law(p, rack, &geo)?;
                 geo.warnings.extend(law.warnings(&geo));
                 ContactModel::Compliant(Law::Structure(Arc::new(law)))
             }
-            _ => ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.kappa, geo.e_star, p.width))),
+            MeshLaw::Johnson => ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.kappa, geo.e_star, p.width))),
         };
-        let dev = Deviations::from_params(p, &geo)?.map(Arc::new);
-        if dev.is_some() && p.contact_model == 2 {
+        let dev = Deviations::new(p, &geo)?.map(Arc::new);
+        if dev.is_some() && p.law == MeshLaw::Rigid {
             return Err(ModelError::new(
                 "parameter contact_model = 2: shape deviations (tip relief, eccentricity, pitch errors) need a compliant contact model (1 or 3); the rigid contact has no penetration for them to add to".into(),
             ));

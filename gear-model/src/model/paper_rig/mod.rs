@@ -16,10 +16,10 @@ mod tests;
 
 use super::contact::{EventFn, Flank, SLOTS};
 use super::mesh::{self, EventReport, GearMesh, Kin, LawOutOfRange, MeshLoad, Placement};
+use super::pair::{MeshLaw, Pair};
 use super::rig::Slider;
 use super::statistics::Statistics;
 use super::ModelError;
-use crate::variables::{Inputs, Params};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
@@ -65,16 +65,17 @@ pub struct Loads {
 }
 
 impl Loads {
-    pub fn new(p: &Params, i: &Inputs) -> Loads {
+    /// No torques and a still housing: the pair's damping and friction, and the load c_load.
+    pub fn idle(pair: &Pair, c_load: f64) -> Loads {
         Loads {
-            tau_a: i.tau_A,
-            tau_b: i.tau_B,
-            c_load: p.c_load,
-            chi: p.chi,
-            mu: p.mu,
-            v_reg: p.v_reg,
-            alpha_housing: i.alpha_housing,
-            a_housing_x: i.a_housing_x,
+            tau_a: 0.0,
+            tau_b: 0.0,
+            c_load,
+            chi: pair.chi,
+            mu: pair.mu,
+            v_reg: pair.v_reg,
+            alpha_housing: 0.0,
+            a_housing_x: 0.0,
         }
     }
 
@@ -122,6 +123,40 @@ impl Ramp {
             alpha_housing: at(2, l.alpha_housing),
             a_housing_x: at(3, l.a_housing_x),
             ..*l
+        }
+    }
+}
+
+/// The rig's description: its pair, the wheels, how it starts, and B's bearing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigSpec {
+    pub pair: Pair,
+    /// Moments of inertia of A and B \[kg m^2\].
+    pub j_a: f64,
+    pub j_b: f64,
+    /// Start speeds \[rad/s\] and transmission error \[m\] (forward positive).
+    pub w_a_start: f64,
+    pub w_b_start: f64,
+    pub dte_start: f64,
+    pub slider: Option<Slider>,
+    /// The statistics' start time \[s\], when they are kept.
+    pub stats_start: Option<f64>,
+}
+
+impl RigSpec {
+    /// The paper's rig (gear-mesh-model.md §5): its pair, J_A = 0.4 and J_B = 2 kg m^2, the
+    /// running start at 100 rad/s with B rolling rigidly, no slider, no statistics.
+    /// SpurGearMesh's defaults are these (`crate::table` checks it).
+    pub fn paper() -> RigSpec {
+        RigSpec {
+            pair: Pair::paper(),
+            j_a: 0.4,
+            j_b: 2.0,
+            w_a_start: 100.0,
+            w_b_start: 100.0 / 1.5,
+            dte_start: 0.0,
+            slider: None,
+            stats_start: None,
         }
     }
 }
@@ -202,57 +237,61 @@ pub struct Energy {
 impl PaperRig {
     /// Builds the rig and its initial state from the parameters (spec §3 initial values;
     /// rig-and-modes §2 for the rigid contact's initial mode).
-    pub fn new(p: &Params, inputs: &Inputs) -> Result<(PaperRig, State), ModelError> {
-        super::params::validate(p)?;
+    pub fn new(spec: &RigSpec, loads: Loads) -> Result<(PaperRig, State), ModelError> {
+        let p = &spec.pair;
         // Geometry errors first, then the rig's own.
         let probe = super::geometry::Geometry::new(p)?;
-        let slider = Slider::from_params(p)?;
-        if p.contact_model == 2 && !(p.dte_start >= -probe.j_n && p.dte_start <= 0.0) {
+        let slider = spec.slider;
+        if let Some(s) = slider {
+            Slider::new(s.k, s.c, s.m)?;
+        }
+        if p.law == MeshLaw::Rigid && !(spec.dte_start >= -probe.j_n && spec.dte_start <= 0.0) {
             return Err(ModelError::new(format!(
                 "parameter dte_start = {} m: with rigid contact (contact_model = 2) it must lie in [-backlash_actual, 0] = [{}, 0]",
-                p.dte_start, 0.0 - probe.j_n
+                spec.dte_start, 0.0 - probe.j_n
             )));
         }
-        if probe.internal && slider.is_some() {
+        if let (true, Some(s)) = (probe.internal, slider) {
             return Err(ModelError::parameter(
                 "slider_stiffness",
-                p.slider_stiffness,
+                s.k,
                 "the slider S is not available for an internal pair (it is the paper rig's external pair's bearing, rig-and-modes.md section 1); set it to 0",
             ));
         }
-        let theta_a = p.dte_start / probe.r_ab;
+        let theta_a = spec.dte_start / probe.r_ab;
         let mesh = GearMesh::new(p, Placement::Paper { theta_a }, slider.is_some())?;
         let geo = &mesh.geo;
         let (sin_a, _) = geo.alpha_w.sin_cos();
-        let inv_m_eff = geo.r_ab * geo.r_ab / p.J_A
-            + geo.r_bb * geo.r_bb / p.J_B
+        let (j_a, j_b) = (spec.j_a, spec.j_b);
+        let inv_m_eff = geo.r_ab * geo.r_ab / j_a
+            + geo.r_bb * geo.r_bb / j_b
             + slider.map_or(0.0, |s| sin_a * sin_a / s.m);
-        let v = geo.r_ab * p.w_A_start - geo.r_bb * p.w_B_start;
+        let v = geo.r_ab * spec.w_a_start - geo.r_bb * spec.w_b_start;
         let cfg = RigConfig {
             slider,
-            j_a: p.J_A,
-            j_b: p.J_B,
+            j_a,
+            j_b,
             inv_m_eff,
-            inv_j_a: 1.0 / p.J_A,
-            inv_j_b: 1.0 / p.J_B,
+            inv_j_a: 1.0 / j_a,
+            inv_j_b: 1.0 / j_b,
             inv_r_bb: 1.0 / geo.r_bb,
         };
         let mut rig = PaperRig {
             mesh,
             cfg: Arc::new(cfg),
-            loads: Loads::new(p, inputs),
+            loads,
             e_gate: 0.0,
             n_events: 0,
             n_impacts: 0,
             e_start: 0.0,
-            stats: p.statistics.then(|| Statistics::new(p.stats_start)),
+            stats: spec.stats_start.map(Statistics::new),
             ramp: None,
             static_dte: None,
         };
         let mut y = [
             theta_a,
-            p.dte_start,
-            p.w_A_start,
+            spec.dte_start,
+            spec.w_a_start,
             v,
             0.0,
             0.0,

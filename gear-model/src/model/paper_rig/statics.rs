@@ -8,10 +8,10 @@
 //! unloaded mesh closes, and the root is bracketed and then found by bisection with secant
 //! steps, on the rig's own right-hand side.
 
-use super::{PaperRig, State, DDTE};
+use super::{Loads, PaperRig, RigSpec, State, DDTE};
 use crate::model::geometry::Geometry;
+use crate::model::pair::MeshLaw;
 use crate::model::ModelError;
-use crate::variables::{Inputs, Params};
 
 /// Converged when the bracket is this fraction of the deflection: far below what the forces
 /// resolve (as the train's STEP_TOL).
@@ -21,12 +21,12 @@ const TOL: f64 = 1e-12;
 const GUESS: f64 = 1e-6;
 
 /// The dte's acceleration at t = 0 with the rig started at `dte_start = d`.
-fn residual(p: &Params, inputs: &Inputs, d: f64) -> Result<f64, ModelError> {
-    let q = Params {
+fn residual(spec: &RigSpec, loads: &Loads, d: f64) -> Result<f64, ModelError> {
+    let q = RigSpec {
         dte_start: d,
-        ..p.clone()
+        ..spec.clone()
     };
-    let (rig, y) = PaperRig::new(&q, inputs)?;
+    let (rig, y) = PaperRig::new(&q, *loads)?;
     let mut dy = State::default();
     rig.rhs(&y, &mut dy)
         .map_err(|e| ModelError::new(format!("static start: {e}")))?;
@@ -34,26 +34,26 @@ fn residual(p: &Params, inputs: &Inputs, d: f64) -> Result<f64, ModelError> {
 }
 
 /// The balanced `dte_start`; the given one when nothing loads the mesh.
-pub fn static_dte_start(p: &Params, inputs: &Inputs) -> Result<f64, ModelError> {
-    if p.contact_model == 2 {
+pub fn static_dte_start(spec: &RigSpec, loads: &Loads) -> Result<f64, ModelError> {
+    if spec.pair.law == MeshLaw::Rigid {
         return Err(ModelError::parameter(
             "static_start",
             "true",
             "rigid contact (contact_model = 2) has no deflection to balance: it starts at its dte_start",
         ));
     }
-    if p.slider_stiffness != 0.0 {
+    if spec.slider.is_some() {
         return Err(ModelError::parameter(
             "static_start",
             "true",
             "not available with the slider S (its displacement would be a second unknown); set slider_stiffness = 0 or start without it",
         ));
     }
-    let j_n = Geometry::new(p)?.j_n;
+    let j_n = Geometry::new(&spec.pair)?.j_n;
     let mid = -0.5 * j_n;
-    let r_mid = residual(p, inputs, mid)?;
+    let r_mid = residual(spec, loads, mid)?;
     if r_mid == 0.0 {
-        return Ok(p.dte_start);
+        return Ok(spec.dte_start);
     }
     // Forward flank: penetration d > 0 pushes the dte back; backward: d < -j_n.
     let (side, edge) = if r_mid > 0.0 {
@@ -63,7 +63,7 @@ pub fn static_dte_start(p: &Params, inputs: &Inputs) -> Result<f64, ModelError> 
     };
     let at = |x: f64| edge + side * x;
     let (mut lo, mut hi) = (0.0, GUESS);
-    let (mut r_lo, mut r_hi) = (r_mid, residual(p, inputs, at(hi))?);
+    let (mut r_lo, mut r_hi) = (r_mid, residual(spec, loads, at(hi))?);
     while r_hi.signum() == r_mid.signum() {
         if hi > 1e-2 {
             return Err(ModelError::parameter(
@@ -74,7 +74,7 @@ pub fn static_dte_start(p: &Params, inputs: &Inputs) -> Result<f64, ModelError> 
         }
         (lo, r_lo) = (hi, r_hi);
         hi *= 2.0;
-        r_hi = residual(p, inputs, at(hi))?;
+        r_hi = residual(spec, loads, at(hi))?;
     }
     while hi - lo > TOL * hi {
         let secant = lo - r_lo * (hi - lo) / (r_hi - r_lo);
@@ -85,7 +85,7 @@ pub fn static_dte_start(p: &Params, inputs: &Inputs) -> Result<f64, ModelError> 
         } else {
             bisect
         };
-        let r = residual(p, inputs, at(x))?;
+        let r = residual(spec, loads, at(x))?;
         if r == 0.0 {
             return Ok(at(x));
         }

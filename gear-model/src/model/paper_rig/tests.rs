@@ -5,27 +5,30 @@ use super::*;
 use crate::model::contact::slot_flank;
 use crate::model::rig;
 
-fn paper() -> (Params, Inputs) {
-    let p = Params {
-        c_load: 2.0,
-        w_A_start: 100.0,
-        w_B_start: 100.0 / 1.5,
-        ..Params::default()
+/// The paper's rig changed by `f`, under the paper's load (c_load = 2) and tau_A = `tau`.
+fn rig(tau: f64, f: impl FnOnce(&mut RigSpec)) -> (PaperRig, State, RigSpec) {
+    rig_loaded(tau, 2.0, f)
+}
+
+fn rig_loaded(tau: f64, c_load: f64, f: impl FnOnce(&mut RigSpec)) -> (PaperRig, State, RigSpec) {
+    let mut spec = RigSpec::paper();
+    f(&mut spec);
+    let loads = Loads {
+        tau_a: tau,
+        ..Loads::idle(&spec.pair, c_load)
     };
-    (
-        p,
-        Inputs {
-            tau_A: 100.0,
-            tau_B: 0.0,
-            ..Inputs::default()
-        },
-    )
+    let (m, y) = PaperRig::new(&spec, loads).unwrap();
+    (m, y, spec)
+}
+
+fn paper() -> (PaperRig, State) {
+    let (m, y, _) = rig(100.0, |_| {});
+    (m, y)
 }
 
 #[test]
 fn initial_modes_of_the_paper_rig() {
-    let (p, i) = paper();
-    let (m, y) = PaperRig::new(&p, &i).unwrap();
+    let (m, y) = paper();
     // f1 at a (moving onto the segment) and f2 one pitch ahead are both gated. At dte = 0
     // with no relative speed the forward flank touches (the spec's closed interval) with
     // zero force; the backward flank is a backlash away.
@@ -40,8 +43,7 @@ fn initial_modes_of_the_paper_rig() {
 /// driver then continues its step); a jump of a carrying pair does not.
 #[test]
 fn only_a_jump_that_carries_no_force_is_smooth() {
-    let (p, i) = paper();
-    let (m, y) = PaperRig::new(&p, &i).unwrap();
+    let (m, y) = paper();
     let mut dy = [0.0; NY];
     m.rhs(&y, &mut dy).unwrap();
     for e in [EventFn::Top(2), EventFn::Bottom(2), EventFn::Bottom(3)] {
@@ -65,26 +67,16 @@ fn only_a_jump_that_carries_no_force_is_smooth() {
 #[test]
 fn mesh_power_balances_elastic_energy_and_losses() {
     for (dte, flank) in [(4e-7, Flank::Forward), (-1e-4 - 3e-7, Flank::Backward)] {
-        let p = Params {
-            chi: 5.0,
-            mu: 0.3,
-            dte_start: dte,
-            w_A_start: 50.0,
-            w_B_start: 33.0,
-            c_load: 0.0,
-            ..Params::default()
-        };
-        // No external torque: the wheels' power is the mesh's.
-        let no_drive = Inputs {
-            tau_A: 0.0,
-            ..Inputs::default()
-        };
-        let (m, y) = PaperRig::new(&p, &no_drive).unwrap();
+        // No external torque, no load: the wheels' power is the mesh's.
+        let (m, y, p) = rig_loaded(0.0, 0.0, |s| {
+            (s.pair.chi, s.pair.mu) = (5.0, 0.3);
+            (s.dte_start, s.w_a_start, s.w_b_start) = (dte, 50.0, 33.0);
+        });
         assert!(m.flank_on(flank));
         let mut dy = [0.0; NY];
         m.rhs(&y, &mut dy).unwrap();
         let acc_b = (m.geo.r_ab * dy[W_A] - dy[DDTE]) / m.geo.r_bb;
-        let p_mesh = (dy[W_A] * p.J_A) * y[W_A] + (acc_b * p.J_B) * m.w_b(&y);
+        let p_mesh = (dy[W_A] * p.j_a) * y[W_A] + (acc_b * p.j_b) * m.w_b(&y);
         let h = 1e-9;
         let mut y2 = y;
         for c in 0..NY {
@@ -102,15 +94,10 @@ fn mesh_power_balances_elastic_energy_and_losses() {
 
 #[test]
 fn friction_off_costs_nothing_and_changes_nothing_when_mu_is_zero() {
-    let p = Params {
-        dte_start: 3e-7,
-        w_A_start: 80.0,
-        w_B_start: 50.0,
-        chi: 0.0,
-        mu: 0.0,
-        ..Params::default()
-    };
-    let (m, y) = PaperRig::new(&p, &Inputs::default()).unwrap();
+    let (m, y, _) = rig(0.0, |s| {
+        (s.pair.chi, s.pair.mu) = (0.0, 0.0);
+        (s.dte_start, s.w_a_start, s.w_b_start) = (3e-7, 80.0, 50.0);
+    });
     let o = m.readout(&y).unwrap();
     let f = o.mesh.flank_force[0];
     assert_eq!(o.p_loss, 0.0);
@@ -121,18 +108,9 @@ fn friction_off_costs_nothing_and_changes_nothing_when_mu_is_zero() {
 
 #[test]
 fn backward_contacts_can_be_left_out() {
-    let p = Params {
-        backward_contacts: false,
-        ..Params::default()
-    };
-    let (m, _) = PaperRig::new(&p, &Inputs::default()).unwrap();
+    let (m, _, _) = rig(0.0, |s| s.pair.backward_contacts = false);
     assert!(m.present(0) && m.present(1) && !m.present(2) && !m.present(3));
-    let p = Params {
-        zA: 20,
-        zB: 30,
-        ..Params::default()
-    };
-    let (m, _) = PaperRig::new(&p, &Inputs::default()).unwrap();
+    let (m, _, _) = rig(0.0, |s| (s.pair.a.z, s.pair.b.z) = (20, 30));
     assert_eq!(m.geo.m_c, 1);
     assert!(m.present(0) && !m.present(1) && m.present(2) && !m.present(3));
 }
@@ -146,24 +124,21 @@ fn backward_contacts_can_be_left_out() {
 /// rounding separates them: sums of products of lengths below 0.5 m and forces, 1e-12.
 #[test]
 fn vector_forces_at_the_contact_points_give_the_torques() {
-    for (contact_model, dte) in [(1, 4e-7), (1, -1e-4 - 3e-7), (2, 0.0), (2, -1e-4)] {
+    let (johnson, rigid) = (MeshLaw::Johnson, MeshLaw::Rigid);
+    for (law, dte) in [
+        (johnson, 4e-7),
+        (johnson, -1e-4 - 3e-7),
+        (rigid, 0.0),
+        (rigid, -1e-4),
+    ] {
         for theta in [0.0, 0.004, 0.011] {
-            let p = Params {
-                contact_model,
-                chi: 5.0,
-                mu: 0.3,
-                dte_start: dte,
-                w_A_start: 50.0,
-                // The flank that carries is approaching (a rigid one then locks at t = 0).
-                w_B_start: if dte < 0.0 { 34.0 } else { 33.0 },
-                ..Params::default()
-            };
             let tau = if dte < 0.0 { -100.0 } else { 100.0 };
-            let i = Inputs {
-                tau_A: tau,
-                ..Inputs::default()
-            };
-            let (mut m, mut y) = PaperRig::new(&p, &i).unwrap();
+            let (mut m, mut y, _) = rig(tau, |s| {
+                (s.pair.law, s.pair.chi, s.pair.mu) = (law, 5.0, 0.3);
+                (s.dte_start, s.w_a_start) = (dte, 50.0);
+                // The flank that carries is approaching (a rigid one then locks at t = 0).
+                s.w_b_start = if dte < 0.0 { 34.0 } else { 33.0 };
+            });
             // Move A on by theta at the same penetration and re-derive the gates there.
             y[THETA_A] += theta;
             m.mesh.init_signs(&kin(&y));
@@ -197,10 +172,7 @@ fn vector_forces_at_the_contact_points_give_the_torques() {
                 m_a += pt_a.0 * -fy - pt_a.1 * -fx;
                 n += 1;
             }
-            assert!(
-                n >= 1,
-                "model {contact_model}, dte {dte}, theta {theta}: a flank carries"
-            );
+            assert!(n >= 1, "{law:?}, dte {dte}, theta {theta}: a flank carries");
             let scale = 1e-9 * (load.tq_a.abs() + load.tq_b.abs());
             assert!(
                 (m_b - load.tq_b).abs() <= scale,

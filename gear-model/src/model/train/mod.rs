@@ -17,6 +17,7 @@ pub mod topology;
 
 use super::contact::{EventFn, N_EVENTS};
 use super::mesh::{self, EventReport, GearMesh, Kin, LawOutOfRange};
+use super::pair::MeshLaw;
 use super::statistics::Statistics;
 use super::ModelError;
 use crate::driver::Vector;
@@ -208,23 +209,12 @@ impl Train {
     ) -> Result<(Train, State), ModelError> {
         let st = spec.structure()?;
         for (m, mp) in spec.meshes.iter().enumerate() {
-            let p = &mp.params;
-            let name = |v: &str| format!("mesh[{}].{v}", m + 1);
-            if p.contact_model == 2 {
+            if mp.pair.law == MeshLaw::Rigid {
                 return Err(ModelError::new(format!(
-                    "parameter {} = 2: rigid contact is not available in a gear train (its impacts and locks are the two-wheel rig's, rig-and-modes.md §2); use contact_model 1 or 3",
-                    name("contact_model")
+                    "parameter mesh[{}].contact_model = 2: rigid contact is not available in a gear train (its impacts and locks are the two-wheel rig's, rig-and-modes.md §2); use contact_model 1 or 3",
+                    m + 1
                 )));
             }
-            if p.slider_stiffness != 0.0 {
-                return Err(ModelError::new(format!(
-                    "parameter {} = {}: the slider S is the two-wheel rig's (rig-and-modes.md §1); a train's housing holds every bearing",
-                    name("slider_stiffness"),
-                    p.slider_stiffness
-                )));
-            }
-            super::params::validate(p)
-                .map_err(|e| ModelError::new(format!("mesh[{}]: {}", m + 1, e.message)))?;
         }
         let lay = placement::layout(&spec, &st)?;
         kinematics::check_jammed(&spec, &st, &lay.geo)?;
@@ -235,7 +225,7 @@ impl Train {
         for (m, mp) in spec.meshes.iter().enumerate() {
             let at = |e: ModelError| ModelError::new(format!("mesh[{}]: {}", m + 1, e.message));
             meshes.push(
-                GearMesh::with_geometry(&mp.params, lay.geo[m].clone(), start.meshes[m], false)
+                GearMesh::with_geometry(&mp.pair, lay.geo[m].clone(), start.meshes[m], false)
                     .map_err(at)?,
             );
         }
@@ -284,7 +274,7 @@ impl Train {
         let coef = spec
             .meshes
             .iter()
-            .map(|mp| mesh::Coefficients::new(&mp.params))
+            .map(|mp| mesh::Coefficients::new(&mp.pair))
             .collect();
         let n_meshes = spec.meshes.len();
         let shaft_ends = spec

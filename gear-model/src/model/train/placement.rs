@@ -37,7 +37,7 @@ fn at_mesh(m: usize) -> impl Fn(ModelError) -> ModelError {
 pub fn layout(spec: &TrainSpec, st: &Structure) -> Result<Layout, ModelError> {
     let n = spec.bodies.len();
     let nominal = |m: usize| -> Result<Geometry, ModelError> {
-        let mut p = spec.meshes[m].params.clone();
+        let mut p = spec.meshes[m].pair.clone();
         p.center_distance_error = 0.0;
         Geometry::at_distance(&p, None).map_err(at_mesh(m))
     };
@@ -74,7 +74,7 @@ pub fn layout(spec: &TrainSpec, st: &Structure) -> Result<Layout, ModelError> {
     let mut housing_geo = Vec::with_capacity(spec.meshes.len());
     for (m, mp) in spec.meshes.iter().enumerate() {
         housing_geo.push(match st.frame[m] {
-            None => Some(Geometry::at_distance(&mp.params, None).map_err(at_mesh(m))?),
+            None => Some(Geometry::at_distance(&mp.pair, None).map_err(at_mesh(m))?),
             Some(_) => None,
         });
     }
@@ -103,7 +103,7 @@ pub fn layout(spec: &TrainSpec, st: &Structure) -> Result<Layout, ModelError> {
                     ((xb - xa).hypot(yb - ya), (yb - ya).atan2(xb - xa))
                 };
                 (
-                    Geometry::at_distance(&mp.params, Some(d)).map_err(at_mesh(m))?,
+                    Geometry::at_distance(&mp.pair, Some(d)).map_err(at_mesh(m))?,
                     beta,
                 )
             }
@@ -309,7 +309,7 @@ pub fn place(spec: &TrainSpec, st: &Structure, lay: &Layout) -> Result<Start, Mo
                         placing[m] = true;
                         let (mp, g, f) = (&spec.meshes[m], &lay.geo[m], lay.frames[m]);
                         let beta = frame_angle(g, f.beta);
-                        let dte = mp.params.dte_start;
+                        let dte = mp.dte_start;
                         // Carriers stand at 0 at the start: angles relative to them are the
                         // absolute ones. The forward delta of A's tooth n_A against B's n_B is
                         // C(chi_A, chi_B) + (n_A - n_B) p_b, linear in both axis angles:
@@ -350,7 +350,7 @@ pub fn place(spec: &TrainSpec, st: &Structure, lay: &Layout) -> Result<Start, Mo
         let (g, f) = (&lay.geo[m], lay.frames[m]);
         let (psi_a, psi_b) = (angle(&psi, mp.a), angle(&psi, mp.b));
         let dte = if placing[m] {
-            mp.params.dte_start
+            mp.dte_start
         } else {
             let beta = frame_angle(g, f.beta);
             let chi_a = f.s * (psi_a - beta + mp.mount_a);
@@ -422,11 +422,11 @@ fn assembly_condition(spec: &TrainSpec, st: &Structure, lay: &Layout, m: usize) 
             continue;
         }
         let g = &lay.geo[k];
-        if q.params.internal && spec.carrier_of(q.b).is_none() {
+        if q.pair.internal && spec.carrier_of(q.b).is_none() {
             z_ring = Some(g.z_b);
-        } else if !q.params.internal && spec.carrier_of(q.a).is_none() {
+        } else if !q.pair.internal && spec.carrier_of(q.a).is_none() {
             z_sun = Some(g.z_a);
-        } else if !q.params.internal && spec.carrier_of(q.b).is_none() {
+        } else if !q.pair.internal && spec.carrier_of(q.b).is_none() {
             z_sun = Some(g.z_b);
         }
     }

@@ -45,7 +45,7 @@ pub struct StartDeflections {
 impl StartDeflections {
     pub fn of(spec: &TrainSpec) -> StartDeflections {
         StartDeflections {
-            dte: spec.meshes.iter().map(|m| m.params.dte_start).collect(),
+            dte: spec.meshes.iter().map(|m| m.dte_start).collect(),
             twist: spec.shafts.iter().map(|s| s.twist_start).collect(),
         }
     }
@@ -59,7 +59,7 @@ impl StartDeflections {
             ));
         }
         for (m, &x) in spec.meshes.iter_mut().zip(&self.dte) {
-            m.params.dte_start = x;
+            m.dte_start = x;
         }
         for (s, &x) in spec.shafts.iter_mut().zip(&self.twist) {
             s.twist_start = x;
@@ -77,14 +77,14 @@ enum Unknown {
 
 fn get(spec: &TrainSpec, u: Unknown) -> f64 {
     match u {
-        Unknown::Mesh(m) => spec.meshes[m].params.dte_start,
+        Unknown::Mesh(m) => spec.meshes[m].dte_start,
         Unknown::Shaft(j) => spec.shafts[j].twist_start,
     }
 }
 
 fn set(spec: &mut TrainSpec, u: Unknown, x: f64) {
     match u {
-        Unknown::Mesh(m) => spec.meshes[m].params.dte_start = x,
+        Unknown::Mesh(m) => spec.meshes[m].dte_start = x,
         Unknown::Shaft(j) => spec.shafts[j].twist_start = x,
     }
 }
@@ -165,7 +165,7 @@ pub fn static_start(spec: TrainSpec, loads: &TrainLoads) -> Result<TrainSpec, Mo
         .unknowns
         .iter()
         .map(|&(_, u)| match u {
-            Unknown::Mesh(m) => -0.5 * b.spec.meshes[m].params.backlash,
+            Unknown::Mesh(m) => -0.5 * b.spec.meshes[m].pair.backlash,
             Unknown::Shaft(_) => 0.0,
         })
         .collect();

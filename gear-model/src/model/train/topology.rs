@@ -3,7 +3,7 @@
 //! of the structure, and each body's forward sense.
 
 use super::super::ModelError;
-use crate::variables::Params;
+use crate::model::pair::Pair;
 
 /// Capacities of the train (planetary.md §5).
 pub const MAX_BODIES: usize = 16;
@@ -83,7 +83,7 @@ pub struct Shaft {
     pub twist_start: f64,
 }
 
-/// A mesh's place in the train; its pair's own parameters are a single-mesh `Params`.
+/// A mesh's place in the train, its pair, and its start.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshPlace {
     /// The bodies carrying gear A and gear B, 0-based, or `HOUSING` (a fixed gear).
@@ -93,7 +93,9 @@ pub struct MeshPlace {
     pub center_angle: f64,
     pub mount_a: f64,
     pub mount_b: f64,
-    pub params: Params,
+    pub pair: Pair,
+    /// The start penetration of a mesh that closes a loop (planetary.md §4) \[m\].
+    pub dte_start: f64,
 }
 
 /// Everything that defines a train.
@@ -222,7 +224,7 @@ impl TrainSpec {
             .meshes
             .iter()
             .map(|mp| {
-                let internal = mp.params.internal;
+                let internal = mp.pair.internal;
                 match (mp.a == HOUSING, mp.b == HOUSING) {
                     (true, _) => (other(sense[mp.b], internal), sense[mp.b]),
                     (_, true) => (sense[mp.a], other(sense[mp.a], internal)),
@@ -462,7 +464,7 @@ impl TrainSpec {
 
     /// Whether an edge turns its two ends opposite ways (an external mesh).
     pub fn flips(&self, e: Edge) -> bool {
-        matches!(e, Edge::Mesh(m) if !self.meshes[m].params.internal)
+        matches!(e, Edge::Mesh(m) if !self.meshes[m].pair.internal)
     }
 }
 
@@ -549,7 +551,8 @@ mod tests {
             center_angle: 0.0,
             mount_a: 0.0,
             mount_b: 0.0,
-            params: Params::default(),
+            pair: Pair::paper(),
+            dte_start: 0.0,
         }
     }
 
@@ -590,7 +593,7 @@ mod tests {
         // Sun 1, carrier 2, planets 3 and 4, ring fixed (the housing).
         let ring = |p: usize| {
             let mut m = mesh(p, HOUSING);
-            m.params.internal = true;
+            m.pair.internal = true;
             m
         };
         let t = train(
