@@ -18,7 +18,7 @@ fn main() {
     std::fs::write(out.join("lower_branch_table.rs"), lower_branch_table()).unwrap();
     for f in [
         "../modelDescription/variables.toml",
-        "../modelDescription/src/lib.rs",
+        "../modelDescription/src",
         "src/model/chebyshev.rs",
         "src/model/lower_branch_fit.rs",
         "../build.rs",

@@ -8,6 +8,6 @@ fn main() {
     let text = std::fs::read_to_string("variables.toml").expect("controller-fmu/variables.toml");
     model_description::write_generated(&model_description::parse(&text), &version, &out);
     println!("cargo:rerun-if-changed=variables.toml");
-    println!("cargo:rerun-if-changed=../modelDescription/src/lib.rs");
+    println!("cargo:rerun-if-changed=../modelDescription/src");
     println!("cargo:rerun-if-changed=build.rs");
 }

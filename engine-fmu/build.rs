@@ -11,6 +11,6 @@ fn main() {
     model_description::write_generated(&table, &version, &out);
 
     println!("cargo:rerun-if-changed=variables.toml");
-    println!("cargo:rerun-if-changed=../modelDescription/src/lib.rs");
+    println!("cargo:rerun-if-changed=../modelDescription/src");
     println!("cargo:rerun-if-changed=build.rs");
 }

@@ -9,8 +9,7 @@ fn main() {
     for f in [
         "../modelDescription/train.toml",
         "../modelDescription/variables.toml",
-        "../modelDescription/src/lib.rs",
-        "../modelDescription/src/train.rs",
+        "../modelDescription/src",
         "build.rs",
     ] {
         println!("cargo:rerun-if-changed={f}");

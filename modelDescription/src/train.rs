@@ -135,7 +135,7 @@ pub fn expand(text: &str, single: &Table) -> Table {
         units,
         vars,
     };
-    crate::check(&table);
+    crate::table::check(&table);
     table
 }
 
