@@ -49,14 +49,14 @@ pub fn validate(p: &Params) -> Result<(), ModelError> {
         ("pitch_errors_A", &p.pitch_errors_A),
         ("pitch_errors_B", &p.pitch_errors_B),
     ] {
-        parse_pitch_errors(name, text, None).map_err(ModelError::new)?;
+        parse_pitch_errors(name, text).map_err(ModelError::new)?;
     }
     Ok(())
 }
 
-/// Parses a pitch-deviation string: comma-separated finite numbers, or empty. `count`, when
-/// given, is the number of teeth it must list.
-pub fn parse_pitch_errors(name: &str, text: &str, count: Option<i32>) -> Result<Vec<f64>, String> {
+/// Parses a pitch-deviation string: comma-separated finite numbers, or empty. Their count is
+/// checked against the teeth when the pair is built (`Deviations::new`).
+fn parse_pitch_errors(name: &str, text: &str) -> Result<Vec<f64>, String> {
     if text.trim().is_empty() {
         return Ok(Vec::new());
     }
@@ -77,22 +77,13 @@ pub fn parse_pitch_errors(name: &str, text: &str, count: Option<i32>) -> Result<
         }
         values.push(x);
     }
-    if let Some(z) = count {
-        if values.len() != z as usize {
-            return Err(format!(
-                "parameter {name}: {} entries, but the wheel has {z} teeth (one per tooth, or none)",
-                values.len()
-            ));
-        }
-    }
     Ok(values)
 }
 
 /// The pair the parameters describe (each checked by `validate`; the tooth counts of the pitch
 /// errors when the pair is built).
 pub fn pair(p: &Params) -> Result<Pair, ModelError> {
-    let pitch =
-        |name: &str, text: &str| parse_pitch_errors(name, text, None).map_err(ModelError::new);
+    let pitch = |name: &str, text: &str| parse_pitch_errors(name, text).map_err(ModelError::new);
     let a = Gear {
         z: p.zA,
         x: p.xA,
@@ -240,18 +231,16 @@ mod tests {
     /// by an ISO 53 rack: the model's tests build these pairs directly.
     #[test]
     fn pitch_strings_are_parsed_with_their_positions_named() {
-        assert_eq!(parse_pitch_errors("x", " ", Some(3)), Ok(vec![]));
+        assert_eq!(parse_pitch_errors("x", " "), Ok(vec![]));
         assert_eq!(
-            parse_pitch_errors("x", "1e-6, -2e-6 ,0", Some(3)),
+            parse_pitch_errors("x", "1e-6, -2e-6 ,0"),
             Ok(vec![1e-6, -2e-6, 0.0])
         );
-        let e = parse_pitch_errors("pitch_errors_A", "1e-6, abc, 0", Some(3)).unwrap_err();
+        let e = parse_pitch_errors("pitch_errors_A", "1e-6, abc, 0").unwrap_err();
         assert!(e.contains("pitch_errors_A") && e.contains("entry 2") && e.contains("abc"));
-        let e = parse_pitch_errors("pitch_errors_B", "1e-6,inf", None).unwrap_err();
+        let e = parse_pitch_errors("pitch_errors_B", "1e-6,inf").unwrap_err();
         assert!(e.contains("entry 2") && e.contains("not finite"));
-        let e = parse_pitch_errors("pitch_errors_B", "1,2", Some(3)).unwrap_err();
-        assert!(e.contains("2 entries") && e.contains("3 teeth"));
-        assert!(parse_pitch_errors("x", "1,,2", None)
+        assert!(parse_pitch_errors("x", "1,,2")
             .unwrap_err()
             .contains("entry 2"));
     }

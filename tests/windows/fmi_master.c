@@ -90,6 +90,9 @@ struct api {
 
 static struct api f;
 static const char *guid;
+/* The resource location passed to fmi2Instantiate (FMI_MASTER_RESOURCES, a file URI): a gearbox
+ * FMU reads its file from there; the other FMUs need none. */
+static const char *resources = "";
 
 static void *sym(void *lib, const char *name) {
 #ifdef _WIN32
@@ -269,7 +272,7 @@ static void apply_starts(fmi2Component c) {
 }
 
 static fmi2Component start_instance(const char *name, fmi2Type type) {
-    fmi2Component c = f.Instantiate(name, type, guid, "", &callbacks, fmi2False, fmi2False);
+    fmi2Component c = f.Instantiate(name, type, guid, resources, &callbacks, fmi2False, fmi2False);
     CHECK(c != NULL, "fmi2Instantiate %s: %s", name, last_error);
     if (!c) exit(1);
     apply_starts(c);
@@ -723,6 +726,7 @@ int main(int argc, char **argv) {
     guid = argv[2];
     mode = argv[3];
     verbose = getenv("FMI_MASTER_VERBOSE") != NULL;
+    if (getenv("FMI_MASTER_RESOURCES")) resources = getenv("FMI_MASTER_RESOURCES");
 #if defined(_WIN32) && (defined(__x86_64__) || defined(__i386__))
     /* FMI_MASTER_X87=53: the x87 control word of a thread Windows creates and of an MSVC-built
      * master, 0x27f (53-bit precision), instead of MinGW's 0x37f (64-bit) on the main thread. The

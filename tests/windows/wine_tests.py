@@ -152,11 +152,18 @@ class Runner:
         self.times = {"linux": 0.0, "wine": 0.0}
         self.lock = threading.Lock()
 
-    def run(self, platform, lib, guid, *args, check=True, x87=None):
+    def run(self, platform, lib, guid, *args, check=True, x87=None, resources=None):
         """Runs the master; file arguments are plain names in the work directory. x87="53": the
-        master sets the x87 control word of Windows' threads and MSVC programs (0x27f)."""
+        master sets the x87 control word of Windows' threads and MSVC programs (0x27f).
+        resources: the FMU's resources directory, passed to fmi2Instantiate as a file URI (under
+        wine through drive Z:, which maps /)."""
         t0 = time.time()
-        env = dict(os.environ, FMI_MASTER_X87=x87) if x87 else None
+        env = dict(os.environ)
+        if x87:
+            env["FMI_MASTER_X87"] = x87
+        if resources:
+            uri = Path(resources).resolve().as_uri()
+            env["FMI_MASTER_RESOURCES"] = uri if platform == "linux" else uri.replace("file:///", "file:///Z:/", 1)
         if platform == "linux":
             cmd = [str(self.linux), str(lib), guid, *args]
             cwd = self.work
@@ -321,11 +328,13 @@ def me_states_threads_errors(r, so, dll, md, guid):
             fail(f"{what}: differs by {worst:.3g}")
 
 
-def other_fmus(r, binaries):
-    """The train, the controller, the shaft and the engine: a default run on both binaries."""
+def other_fmus(r, binaries, work):
+    """The train, a gearbox FMU (its file read from its resources), the controller, the shaft and
+    the engine: a default run on both binaries."""
     cases = {
         "SpurGearTrain": (dict(stop_time=0.02, output_interval=1e-4),
                           ["mesh[1].dte", "mesh[2].dte", "body[4].w", "shaft[1].tau"], {}),
+        "PlanetarySimple": (dict(stop_time=0.02, output_interval=1e-4), None, {}),
         "TorsionalShaft": (dict(stop_time=0.01, output_interval=1e-3), ["tau_a", "tau_b"],
                            {"theta_a": 0.01, "w_a": 2.0, "theta_b": -0.002, "w_b": 1.0}),
         "SpeedController": (dict(stop_time=0.05, output_interval=1e-3), None, {}),
@@ -341,8 +350,11 @@ def other_fmus(r, binaries):
             outputs = [n for n in re.findall(r'name="([^"]+)"[^>]*causality="output"', md)
                        if types[n][1] == "Real"]
         r.write(f"{mid}.txt", scene_text(md, {}, outputs=outputs, start=starts, **times))
-        r.run("linux", so, guid, "cs", f"{mid}.txt", f"{mid}-linux.csv")
-        r.run("wine", dll, guid, "cs", f"{mid}.txt", f"{mid}-windows.csv")
+        # check_packages unpacked each FMU into the work directory: a gearbox FMU's file is there.
+        resources = work / mid / "resources"
+        resources = resources if resources.is_dir() else None
+        r.run("linux", so, guid, "cs", f"{mid}.txt", f"{mid}-linux.csv", resources=resources)
+        r.run("wine", dll, guid, "cs", f"{mid}.txt", f"{mid}-windows.csv", resources=resources)
         d = diff(r.path("linux", f"{mid}-linux.csv"), r.path("wine", f"{mid}-windows.csv"))
         if d is None:
             fail(f"{mid}: different lengths")
@@ -373,7 +385,7 @@ def main():
             fail(f"tests/windows/fmi_master.c: value references changed: {want} vs {got}")
         scene_tests(r, so, dll, md, guid)
         me_states_threads_errors(r, so, dll, md, guid)
-    other_fmus(r, binaries)
+    other_fmus(r, binaries, work)
     print(f"\nwine_tests: {time.time() - t0:.0f} s (master run times: Linux {r.times['linux']:.0f} s, "
           f"wine {r.times['wine']:.0f} s), {len(failures)} failures", flush=True)
     return 1 if failures else 0
