@@ -27,9 +27,9 @@ use diffsol_peer::peer::{self, MeshRhs, PeerOptions, RunOut, Scene};
 use spur_gear_mesh::driver::bdf::Bdf;
 use spur_gear_mesh::driver::dopri5::Dopri5;
 use spur_gear_mesh::driver::simulation::tolerance;
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::driver::Stats;
 use spur_gear_mesh::model::paper_rig::N_CONTROLLED;
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params, VarType, VARIABLES};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -396,7 +396,7 @@ fn restart_cost(opts: PeerOptions) {
     let rtol = 1e-6;
     let mut p = sc.params.clone();
     p.rel_tol = rtol;
-    let mut sim = Simulation::new(&p, &sc.inputs, 0.0, rtol).unwrap();
+    let mut sim = table::simulation(&p, &sc.inputs, 0.0, rtol).unwrap();
     sim.advance(0.025, &mut |_, _| {}).unwrap();
     let (mesh, y, t) = (sim.rig.clone(), sim.driver.state(), 0.025);
     let tol = tolerance(&mesh, rtol);

@@ -7,11 +7,11 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use spur_gear_mesh::driver::simulation::Simulation;
 use spur_gear_mesh::driver::System;
 use spur_gear_mesh::model::contact::N_EVENTS;
 use spur_gear_mesh::model::paper_rig::{DTE, N_CONTROLLED};
 use spur_gear_mesh::model::{PaperRig, State, NY};
+use spur_gear_mesh::table;
 use spur_gear_mesh::variables::{Inputs, Params};
 
 use crate::diffsol_method::{DiffsolKind, DiffsolMethod};
@@ -55,7 +55,7 @@ pub fn run_ours(sc: &Scene, solver: i32, rtol: f64) -> Result<RunOut, String> {
     let mut p = sc.params.clone();
     p.solver = solver;
     p.rel_tol = rtol;
-    let mut sim = Simulation::new(&p, &sc.inputs, 0.0, rtol).map_err(|e| e.to_string())?;
+    let mut sim = table::simulation(&p, &sc.inputs, 0.0, rtol).map_err(|e| e.to_string())?;
     sim.set_stop_time(sc.t_end);
     let n = sc.n_comm();
     let mut dte = Vec::with_capacity(n + 1);
@@ -224,7 +224,7 @@ pub fn start_diffsol(
     rtol: f64,
     opts: PeerOptions,
 ) -> Result<(Rc<MeshRhs>, DiffsolMethod), String> {
-    let (mesh, y0) = PaperRig::new(&sc.params, &sc.inputs).map_err(|e| e.to_string())?;
+    let (mesh, y0) = table::paper_rig(&sc.params, &sc.inputs).map_err(|e| e.to_string())?;
     let atol = mesh.abs_tol(rtol).to_vec();
     let model = Rc::new(MeshRhs {
         mesh: RefCell::new(mesh),
