@@ -151,7 +151,7 @@ unsafe fn get_array<S: Slave>(
     p: *mut f64,
     n: usize,
     (expected, what): (fn(&S) -> usize, &'static str),
-    label: fn(usize) -> String,
+    label: fn(&S, usize) -> String,
     get: impl FnOnce(&mut S, &mut [f64]) -> Result<(), Failure>,
 ) -> Status {
     with_me::<S>(c, func, allowed::ME_GET, |i| {
@@ -161,7 +161,7 @@ unsafe fn get_array<S: Slave>(
         if let Some(k) = out.iter().position(|v| !v.is_finite()) {
             return Err(error(format!(
                 "{} = {} is not finite at t = {}: the states or the time set are outside what the model can evaluate",
-                label(k),
+                label(&i.slave, k),
                 out[k],
                 i.slave.time()
             )));
@@ -172,7 +172,7 @@ unsafe fn get_array<S: Slave>(
 
 pub unsafe fn get_derivatives<S: Slave>(c: Component, dx: *mut f64, nx: usize) -> Status {
     let size = (S::n_states as fn(&S) -> usize, "nx");
-    let label = |k| format!("der({})", S::state_name(k));
+    let label = |s: &S, k| format!("der({})", s.state_name(k));
     get_array::<S>(
         c,
         "fmi2GetDerivatives",
@@ -186,7 +186,7 @@ pub unsafe fn get_derivatives<S: Slave>(c: Component, dx: *mut f64, nx: usize) -
 
 pub unsafe fn get_event_indicators<S: Slave>(c: Component, z: *mut f64, ni: usize) -> Status {
     let size = (S::n_event_indicators as fn(&S) -> usize, "ni");
-    let label = |k| format!("event indicator {k}");
+    let label = |_: &S, k| format!("event indicator {k}");
     get_array::<S>(
         c,
         "fmi2GetEventIndicators",
@@ -200,7 +200,7 @@ pub unsafe fn get_event_indicators<S: Slave>(c: Component, z: *mut f64, ni: usiz
 
 pub unsafe fn get_continuous_states<S: Slave>(c: Component, x: *mut f64, nx: usize) -> Status {
     let size = (S::n_states as fn(&S) -> usize, "nx");
-    let label = |k| S::state_name(k).to_string();
+    let label = |s: &S, k| s.state_name(k);
     get_array::<S>(
         c,
         "fmi2GetContinuousStates",
@@ -218,7 +218,7 @@ pub unsafe fn get_nominals_of_continuous_states<S: Slave>(
     nx: usize,
 ) -> Status {
     let size = (S::n_states as fn(&S) -> usize, "nx");
-    let label = |k| format!("the nominal of {}", S::state_name(k));
+    let label = |s: &S, k| format!("the nominal of {}", s.state_name(k));
     get_array::<S>(
         c,
         "fmi2GetNominalsOfContinuousStates",

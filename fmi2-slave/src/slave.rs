@@ -189,8 +189,8 @@ pub trait Slave: Clone + 'static {
     }
 
     /// The name of continuous state k (messages).
-    fn state_name(_k: usize) -> &'static str {
-        "a continuous state"
+    fn state_name(&self, _k: usize) -> String {
+        "a continuous state".into()
     }
 
     /// fmi2ExitInitializationMode of a Model Exchange instance: afterwards the master

@@ -546,10 +546,13 @@ impl<R: Rig> Slave for RigInstance<R> {
     const N_EVENT_INDICATORS: usize = R::N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = R::EVENT_INDICATOR_VR0;
 
-    fn state_name(k: usize) -> &'static str {
-        R::STATES.get(k).map_or("a continuous state", |s| {
-            <R::Table as Table>::info(s.0).name
-        })
+    fn state_name(&self, k: usize) -> String {
+        R::STATES
+            .get(k)
+            .map_or("a continuous state", |s| {
+                <R::Table as Table>::info(s.0).name
+            })
+            .into()
     }
 
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {

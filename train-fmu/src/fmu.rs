@@ -40,6 +40,8 @@ pub fn guid(text: &str) -> String {
 pub struct GearboxFmu {
     pub gearbox: Gearbox,
     pub vars: Vec<GearboxVar>,
+    /// Model Exchange's states as indices into the train's (`gearbox_vars::state_indices`).
+    pub states: Vec<usize>,
     pub guid: String,
     params: Params,
     inputs: Inputs,
@@ -53,6 +55,7 @@ impl GearboxFmu {
         let (params, inputs) = file::params(&values).map_err(|e| file::in_file_names(&g, &e))?;
         Ok(GearboxFmu {
             vars: gearbox_vars::variables(&g),
+            states: gearbox_vars::state_indices(&g),
             guid: guid(text),
             gearbox: g,
             params,
@@ -60,9 +63,10 @@ impl GearboxFmu {
         })
     }
 
-    /// Model Exchange's continuous states: the two work accounts and a coordinate per body.
+    /// Model Exchange's continuous states: the two work accounts and a coordinate per body,
+    /// its value and rate (a speed drive's rate is its input, not a state).
     pub fn n_states(&self) -> usize {
-        2 + 2 * self.gearbox.bodies.len()
+        self.states.len()
     }
 
     pub fn n_event_indicators(&self) -> usize {
@@ -278,6 +282,24 @@ impl TrainFmu {
         let mut full = [0.0; N];
         self.on_train(|t| get(t, &mut full))?;
         out.copy_from_slice(&full[..out.len()]);
+        Ok(())
+    }
+
+    /// A per-state array of the train, for a gearbox its states only.
+    fn states_of(
+        &mut self,
+        out: &mut [f64],
+        get: fn(&mut SpurGearTrain, &mut [f64]) -> Result<(), Failure>,
+    ) -> Result<(), Failure> {
+        let Some(o) = self.gearbox.as_ref() else {
+            return get(&mut self.train, out);
+        };
+        let states = o.fmu.states.clone();
+        let mut full = [0.0; N_STATES];
+        self.on_train(|t| get(t, &mut full))?;
+        for (x, i) in out.iter_mut().zip(states) {
+            *x = full[i];
+        }
         Ok(())
     }
 }
@@ -577,8 +599,9 @@ impl Slave for TrainFmu {
             .map_or(SpurGearTrain::EVENT_INDICATOR_VR0, own)
     }
 
-    fn state_name(k: usize) -> &'static str {
-        SpurGearTrain::state_name(k)
+    fn state_name(&self, k: usize) -> String {
+        let k = self.gearbox.as_ref().map_or(k, |o| o.fmu.states[k]);
+        self.train.state_name(k)
     }
 
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {
@@ -593,19 +616,23 @@ impl Slave for TrainFmu {
         if self.gearbox.is_none() {
             return self.train.me_set_states(x);
         }
-        // The coordinates beyond the gearbox's bodies are not in use: they keep their 0.
+        // The coordinates beyond the gearbox's bodies are not in use: they keep their 0; a
+        // speed drive's rate keeps its input.
         let mut full = [0.0; N_STATES];
         self.on_train(|t| t.me_states(&mut full))?;
-        full[..x.len()].copy_from_slice(x);
+        let states = &self.gearbox.as_ref().expect("a gearbox").fmu.states;
+        for (&i, &xi) in states.iter().zip(x) {
+            full[i] = xi;
+        }
         self.on_train(|t| t.me_set_states(&full))
     }
 
     fn me_states(&mut self, x: &mut [f64]) -> Result<(), Failure> {
-        self.prefix::<N_STATES>(x, SpurGearTrain::me_states)
+        self.states_of(x, SpurGearTrain::me_states)
     }
 
     fn me_derivatives(&mut self, dx: &mut [f64]) -> Result<(), Failure> {
-        self.prefix::<N_STATES>(dx, SpurGearTrain::me_derivatives)
+        self.states_of(dx, SpurGearTrain::me_derivatives)
     }
 
     fn me_event_indicators(&mut self, z: &mut [f64]) -> Result<(), Failure> {
@@ -613,7 +640,7 @@ impl Slave for TrainFmu {
     }
 
     fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
-        self.prefix::<N_STATES>(n, SpurGearTrain::me_nominals)
+        self.states_of(n, SpurGearTrain::me_nominals)
     }
 
     fn me_enter_event_mode(&mut self) -> Result<(), Failure> {

@@ -216,6 +216,21 @@ const TORQUE_ONLY: [&str; 1] = ["w_start"];
 /// A planet's own body parameters.
 const PLANET_ONLY: [&str; 4] = ["orbit_angle", "m", "pin_error_r", "pin_error_t"];
 
+/// The coordinates that are speed-driven bodies' angles: the first ones, one per driven body
+/// (the train chooses a driven body's angle as a coordinate before any other).
+pub fn driven_coordinates(g: &Gearbox) -> usize {
+    g.bodies.iter().filter(|b| b.drive == Drive::Speed).count()
+}
+
+/// Model Exchange's continuous states, as indices into the train's: `W_ext`, `W_loss`, then
+/// each coordinate's value and rate, except a speed-driven coordinate's rate.
+pub fn state_indices(g: &Gearbox) -> Vec<usize> {
+    let driven_rate = |i: usize| i >= 2 && (i - 2) % 2 == 1 && (i - 2) / 2 < driven_coordinates(g);
+    (0..2 + 2 * g.bodies.len())
+        .filter(|&i| !driven_rate(i))
+        .collect()
+}
+
 /// The variables of the gearbox's FMU, in value-reference order (vr = index + 1).
 pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
     let mut out = Vec::new();
@@ -243,10 +258,12 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
         match element(info.name) {
             None if STRUCTURE.contains(&info.name) => {}
             None => out.push(v(info.name.into(), WHOLE_OUTPUTS.contains(&info.name))),
-            // A state's derivative (`der(coordinate[2].value)`) goes with its state.
+            // A state's derivative (`der(coordinate[2].value)`) goes with its state. A speed
+            // drive's rate is its input, not a state: its derivative is left out.
             _ if info.name.starts_with("der(coordinate[") => {
                 let inner = &info.name[4..info.name.len() - 1];
-                if matches!(element(inner), Some((_, k, _)) if k <= g.bodies.len()) {
+                if matches!(element(inner), Some((_, k, f)) if k <= g.bodies.len() && !(f == "rate" && k <= driven_coordinates(g)))
+                {
                     coordinates.push(v(info.name.into(), false))
                 }
             }

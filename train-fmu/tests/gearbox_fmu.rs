@@ -152,6 +152,40 @@ fn model_exchange_has_exactly_the_gearbox_states() {
     assert!(z.iter().all(|v| v.is_finite()));
 }
 
+/// A speed-driven body's rate is its input, not a state: the spec's example (the generator
+/// speed-driven) has one state fewer than two per body, the driven coordinate's rate (the
+/// train's state 3: the driven angle is its first coordinate) is the one left out, and a
+/// master's set of the states leaves it at the input.
+#[test]
+fn a_speed_drive_rate_is_not_a_model_exchange_state() {
+    let text = std::fs::read_to_string(root().join("scenes/gearbox/nrel-stage1.toml")).unwrap();
+    let mut a = instantiate(&text, "me-speed").unwrap();
+    let nb = a.gearbox_fmu().unwrap().gearbox.bodies.len();
+    assert_eq!(a.n_states(), 2 + 2 * nb - 1);
+    let kept: Vec<usize> = (0..2 + 2 * nb).filter(|&i| i != 3).collect();
+    assert_eq!(a.gearbox_fmu().unwrap().states, kept);
+    assert_eq!(a.state_name(2), "coordinate[1].value");
+    assert_eq!(a.state_name(3), "coordinate[2].value");
+    a.setup_experiment(None, 0.0, None).unwrap();
+    a.me_exit_initialization().unwrap();
+    let mut full = vec![0.0; SpurGearTrain::N_STATES];
+    a.train.me_states(&mut full).unwrap();
+    // The generator's input speed, 18.75 rad/s in the file.
+    let w_in = full[3];
+    assert!((w_in - 18.75).abs() <= 1e-12 * 18.75, "{w_in}");
+    let mut x = vec![0.0; a.n_states()];
+    a.me_states(&mut x).unwrap();
+    let picked: Vec<f64> = kept.iter().map(|&i| full[i]).collect();
+    assert_eq!(x, picked);
+    x[4] += 1e-3;
+    a.me_set_states(&x).unwrap();
+    a.train.me_states(&mut full).unwrap();
+    assert_eq!((full[3], full[5]), (w_in, x[4]));
+    let mut dx = vec![0.0; a.n_states()];
+    a.me_derivatives(&mut dx).unwrap();
+    assert!(dx.iter().all(|v| v.is_finite()));
+}
+
 /// A gear's key is one variable; setting it sets the pair parameter of every mesh of the gear
 /// (the wheel of two-stage meshes once, a planet of planetary-simple twice), and a refused
 /// value leaves everything as it was, with the gear's name in the message.

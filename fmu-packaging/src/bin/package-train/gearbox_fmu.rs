@@ -182,7 +182,7 @@ fn documentation(fmu: &GearboxFmu, t: &Table) -> String {
     ));
     h.push_str("<h2>Layout</h2>\n<p>Each gear's reference circle at its axis, to scale; red lines join meshing gears; bodies joined by a shaft share an axis.</p>\n<p><img src=\"layout.svg\" alt=\"layout of the gearbox\" style=\"max-width:100%\"></p>\n");
     h.push_str(&format!(
-        "<h2>Interfaces</h2>\n<ul>\n<li><b>Co-Simulation</b>: the FMU integrates and locates every tooth-pair event inside each step.</li>\n<li><b>Model Exchange</b>: {} continuous states (<code>W_ext</code>, <code>W_loss</code>, then a value and a rate per coordinate, one coordinate per body) and {} event indicators ({} per mesh). Use a master with root finding (CVode).</li>\n<li><b>FMI 3.0</b>: <code>{}-fmi3.fmu</code>, the same binary and variables.</li>\n</ul>\n",
+        "<h2>Interfaces</h2>\n<ul>\n<li><b>Co-Simulation</b>: the FMU integrates and locates every tooth-pair event inside each step.</li>\n<li><b>Model Exchange</b>: {} continuous states (<code>W_ext</code>, <code>W_loss</code>, then a value and a rate per coordinate, one coordinate per body; a speed-driven body's rate is its input, not a state) and {} event indicators ({} per mesh). Use a master with root finding (CVode).</li>\n<li><b>FMI 3.0</b>: <code>{}-fmi3.fmu</code>, the same binary and variables.</li>\n</ul>\n",
         fmu.n_states(),
         fmu.n_event_indicators(),
         fmu.n_event_indicators() / g.meshes.len().max(1),
