@@ -127,6 +127,13 @@ impl Geometry {
         let needed = (g.eps - 1e-9).ceil() as usize;
         g.m_c = match p.contacts_per_flank {
             0 => needed,
+            m if m > 2 => {
+                return Err(ModelError::parameter(
+                    "contacts_per_flank",
+                    m,
+                    "must be 0 (automatic), 1 or 2",
+                ))
+            }
             m if m < needed => {
                 return Err(ModelError::parameter(
                     "contacts_per_flank",

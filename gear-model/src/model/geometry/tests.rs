@@ -354,6 +354,16 @@ fn a_bad_centre_distance_is_refused() {
     assert!((lhs - rhs).abs() < 1e-15, "{lhs} vs {rhs}");
 }
 
+/// The model keeps its own bound on the contact objects (two per flank), whoever built the
+/// pair; SpurGearMesh's table refuses 3 before.
+#[test]
+fn more_than_two_contacts_per_flank_are_refused() {
+    let e = geo(&paper(|p| p.contacts_per_flank = 3))
+        .unwrap_err()
+        .message;
+    assert!(e.contains("contacts_per_flank = 3"), "{e}");
+}
+
 #[test]
 fn internal_needs_standard_geometry() {
     let e = geo(&paper(|p| p.internal = true)).unwrap_err().message;
