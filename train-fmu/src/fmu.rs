@@ -294,10 +294,11 @@ impl TrainFmu {
         let Some(o) = self.gearbox.as_ref() else {
             return get(&mut self.train, out);
         };
-        let states = o.fmu.states.clone();
+        // The gearbox is shared (an Arc): no copy of its state list per call.
+        let fmu = o.fmu.clone();
         let mut full = [0.0; N_STATES];
         self.on_train(|t| get(t, &mut full))?;
-        for (x, i) in out.iter_mut().zip(states) {
+        for (x, &i) in out.iter_mut().zip(&fmu.states) {
             *x = full[i];
         }
         Ok(())
