@@ -21,6 +21,23 @@ fn run(p: &Params, i: &Inputs, rtol: f64, h: f64, t_end: f64) -> Vec<(f64, Outpu
         .collect()
 }
 
+/// The paper's scene, written out: 100 N.m on A, the load c_load = 2, the running start at
+/// 100 rad/s with B rolling rigidly, chi = 10 (SpurGearMesh's defaults are these).
+fn paper_scene() -> (Params, Inputs) {
+    let p = Params {
+        c_load: 2.0,
+        chi: 10.0,
+        w_A_start: 100.0,
+        w_B_start: 100.0 / 1.5,
+        ..Params::default()
+    };
+    let i = Inputs {
+        tau_A: 100.0,
+        ..Inputs::default()
+    };
+    (p, i)
+}
+
 fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
@@ -33,16 +50,10 @@ fn rel(a: f64, b: f64) -> f64 {
 /// rounding remains: about eps per step over ~300 steps and restarts, far below 1e-12.
 #[test]
 fn rigid_forward_lock_matches_the_closed_form() {
+    let (p, i) = paper_scene();
     let p = Params {
         contact_model: 2,
-        c_load: 2.0,
-        w_A_start: 100.0,
-        w_B_start: 100.0 / 1.5,
-        ..Params::default()
-    };
-    let i = Inputs {
-        tau_A: 100.0,
-        ..Inputs::default()
+        ..p
     };
     let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
     let ratio = g.r_bb / g.r_ab;
@@ -262,17 +273,7 @@ fn slider_static_balance() {
 fn the_static_start_is_the_reference_running_start() {
     use spur_gear_mesh::model::paper_rig::statics::static_dte_start;
     use spur_gear_mesh::model::paper_rig::DDTE;
-    let p = Params {
-        c_load: 2.0,
-        chi: 10.0,
-        w_A_start: 100.0,
-        w_B_start: 100.0 / 1.5,
-        ..Params::default()
-    };
-    let i = Inputs {
-        tau_A: 100.0,
-        ..Inputs::default()
-    };
+    let (p, i) = paper_scene();
     let d = static_dte_start(&table::rig(&p).unwrap(), &table::loads(&p, &i)).unwrap();
     let want = 5.592370531367129e-07;
     assert!(rel(d, want) <= 1e-9, "{d} against {want}");
