@@ -101,15 +101,6 @@ pub struct Pair {
 }
 
 impl Pair {
-    /// The wheel's gear by index, 0 = A.
-    pub fn gear(&self, w: usize) -> &Gear {
-        if w == 0 {
-            &self.a
-        } else {
-            &self.b
-        }
-    }
-
     /// The basic rack of a standard cut.
     pub fn rack(&self) -> Option<&Rack> {
         match &self.cut {
