@@ -194,8 +194,14 @@ fn one_mesh_and_two_bodies_is_the_single_mesh() {
             "{k}: {a} vs {b}"
         );
     }
+    traces_agree(&p, spec);
+}
+
+/// The single mesh's traces and the one-mesh train's agree to 1e-7 of dte's range and 1e-7 of
+/// the speeds (see `one_mesh_and_two_bodies_is_the_single_mesh`).
+fn traces_agree(p: &Params, spec: TrainSpec) {
     let (h, n) = (1e-4, 1000);
-    let reference = run_rig(&p, 1e-10, h, n);
+    let reference = run_rig(p, 1e-10, h, n);
     let (sim, ys) = run_train(spec, vec![100.0, 0.0], 1e-10, h, n);
     let range = reference.iter().map(|r| r[0]).fold(f64::MIN, f64::max)
         - reference.iter().map(|r| r[0]).fold(f64::MAX, f64::min);
@@ -207,6 +213,21 @@ fn one_mesh_and_two_bodies_is_the_single_mesh() {
         assert!((b.w[1] - r[2]).abs() <= 1e-7 * r[2].abs());
     }
     assert!(worst <= 1e-7, "dte differs by {worst:e} of its range");
+}
+
+/// The lumped mesh (contact_model = 4), constant and as the square wave, is the same in a
+/// train as in the single mesh (the argument above; its events are the same functions).
+#[test]
+fn a_lumped_mesh_in_a_train_is_the_single_lumped_mesh() {
+    for varies in [false, true] {
+        let p = Params {
+            contact_model: 4,
+            k_lumped_varies: varies,
+            c_lumped: 2000.0,
+            ..damped()
+        };
+        traces_agree(&p, one_mesh_train(&p));
+    }
 }
 
 fn reducer(shaft_k: f64) -> TrainSpec {

@@ -80,7 +80,7 @@ MESH_PLACEMENT = {"A", "B", "center_angle", "mount_A", "mount_B"}
 # Single-mesh parameters that a train does not have (spec section 1: bodies carry inertia, drag,
 # start speed and external torque; solver and tolerance belong to the whole train).
 NOT_IN_TRAIN = {"J_A", "J_B", "c_load", "w_A_start", "w_B_start", "tau_A", "tau_B", "solver",
-                "rel_tol", "restitution"}
+                "rel_tol", "restitution", "slider_stiffness"}
 MESH_GEAR_FIELDS = set(G.DEFAULTS) - NOT_IN_TRAIN
 INTEGER_FIELDS = {("shaft", "a"), ("shaft", "b"), ("mesh", "A"), ("mesh", "B"),
                   ("body", "carrier")}

@@ -105,7 +105,13 @@ fn documentation(t: &Table) -> String {
          and compression and the wheel bodies' fillet-foundation in series with Weber's local contact. Pick it for a real \
          gear's mesh stiffness and transmission error: the contact-only mesh of model 1 is 2-3 times stiffer than \
          ISO 6336-1; model 3 is 0.8-1.0 times ISO. Each pair's stiffness depends on where it sits (<code>k_mesh</code>, \
-         <code>load_share</code>).</li></ul>\n\
+         <code>load_share</code>).</li>\
+         <li><code>contact_model = 4</code> (lumped): the classical lumped-parameter mesh of Kahraman &amp; Singh and \
+         Lin &amp; Parker, one linear spring <code>k_lumped</code> [N/m] and damper <code>c_lumped</code> [N.s/m] along each \
+         flank's line of action, with the backlash and no friction (<code>chi</code> and <code>mu</code> are not used). \
+         With <code>k_lumped_varies</code> the stiffness is the square wave <code>k_lumped n / eps</code>, <code>n</code> \
+         the pairs on the contact segment. Pick it to compare with the lumped-parameter literature or for the cheapest run \
+         that still vibrates; it has no tooth contact physics of its own.</li></ul>\n\
          <h2>Shape deviations</h2>\n<p>Off by default. Each adds a length along the line of action to one pair's \
          penetration, so pairs on a flank no longer share it: each carries at its own penetration and has its own \
          onset, separation and release events. <code>tip_relief_A</code>/<code>_B</code> over \

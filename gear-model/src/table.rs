@@ -5,7 +5,7 @@
 //! together. The model never reads the table; SpurGearTrain reads each mesh's pair through
 //! this too.
 
-use crate::model::pair::{Cut, Gear, MeshLaw, Pair, PaperCut, Rack, ReliefShape};
+use crate::model::pair::{Cut, Gear, Lumped, MeshLaw, Pair, PaperCut, Rack, ReliefShape};
 use crate::model::paper_rig::{Loads, PaperRig, RigSpec, State};
 use crate::model::rig::Slider;
 use crate::model::ModelError;
@@ -133,11 +133,16 @@ pub fn pair(p: &Params) -> Result<Pair, ModelError> {
         1 => MeshLaw::Johnson,
         2 => MeshLaw::Rigid,
         3 => MeshLaw::ToothStructure,
+        4 => MeshLaw::Lumped(Lumped {
+            k: p.k_lumped,
+            c: p.c_lumped,
+            varies: p.k_lumped_varies,
+        }),
         other => {
             return Err(ModelError::parameter(
                 "contact_model",
                 other,
-                "must be 1 (Johnson), 2 (rigid) or 3 (tooth structure)",
+                "must be 1 (Johnson), 2 (rigid), 3 (tooth structure) or 4 (lumped)",
             ))
         }
     };

@@ -24,6 +24,7 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 
 from reference_model import gearmesh_ref as G  # noqa: E402
 from reference_model import deviations_ref as D  # noqa: E402
+from reference_model import lumped_ref as LR  # noqa: E402
 
 # ------------------------------------------------------------------------------ test vectors
 # (name, printed value) from /work/shared/spec/test-vectors.md, backlash = 1e-4 m
@@ -487,6 +488,8 @@ def test_scene_files(name):
     with open(path) as f:
         head = f.readline().strip()
     expected = list(G.OUTPUT_NAMES)
+    if sc.get("start_values", {}).get("contact_model", 1) == 4:
+        expected += LR.EXTRA_OUTPUT_NAMES         # the lumped mesh: k_mesh
     if G.GearMesh(sc.get("start_values", {})).dev_mesh is not None:
         expected += D.EXTRA_OUTPUT_NAMES         # contact model 3 / deviations: k_mesh, load_share
     if sc.get("start_values", {}).get("contact_model", 1) == 2:
@@ -808,3 +811,256 @@ def test_rigid_object_identity_matches_spec_tracking():
         assert np.all((sA[on] <= g.s_b + 1e-12) & (sA[on] >= g.s_a - 1e-12)), name
         tot, n = (col("F_fwd"), col("n_fwd")) if fwd else (col("F_bwd"), col("n_bwd"))
         assert np.allclose(col("F_" + name)[on], tot[on] / n[on], rtol=1e-14, atol=0)
+
+
+# ------------------------------------------------------------------------------ lumped mesh
+# contact_model = 4 (lateral.md section 4; tests/reference_model/lumped_ref.py): closed forms of
+# the linear spring k_eff along the line of action.
+LUMPED = dict(contact_model=4, k_lumped=4e8)
+# an internal standard pair (scenes/internal-damped.toml's gear data)
+INTERNAL = dict(geometry=2, internal=True, module=0.002, zA=20, zB=60, xA=0.0, xB=0.5, width=0.02,
+                backlash=5e-5, J_A=0.005, J_B=0.5)
+
+
+def m_eq(g, p):
+    """The mesh mode's mass along the line of action: 1/(rAb^2/J_A + rBb^2/J_B)."""
+    return 1.0 / (g.rAb ** 2 / p["J_A"] + g.rBb ** 2 / p["J_B"])
+
+
+def at_rest(sv, tau, flank=1, uA=None, n=None):
+    """The rig at rest under tau_A = tau balanced by tau_B = -tau rBb/rAb, started at the closed
+    form deflection of the flank: delta = F/k_eff with F = |tau|/rAb (forward: dte = delta,
+    backward: dte = -j_n - delta).  uA: wheel A's start position rAb theta_A (default: the
+    scene start, dte_start/rAb); n: the gated pairs there (for k_eff with k_lumped_varies)."""
+    m0 = G.GearMesh(sv)
+    g, L = m0.g, m0.lumped
+    F = abs(tau) / g.rAb
+    delta = F / L.k_eff(n if n is not None else 1)
+    dte = delta if flank == 1 else -g.backlash - delta
+    sv = dict(sv, tau_A=tau, tau_B=-tau * g.rBb / g.rAb, dte_start=dte)
+    m = G.GearMesh(sv)
+    y0 = m.initial_state()
+    if uA is not None:
+        y0[0] = uA / g.rAb
+    return m, y0, F, delta, dte
+
+
+@pytest.mark.parametrize("gear,flank", [(dict(), 1), (dict(), -1), (INTERNAL, 1), (INTERNAL, -1),
+                                        (dict(INTERNAL, center_distance_error=2e-5), -1)],
+                         ids=["paper-fwd", "paper-bwd", "internal-fwd", "internal-bwd",
+                              "internal-bwd-centre-distance"])
+def test_lumped_static_deflection(gear, flank):
+    """Constant k: a constant torque balanced at rest: nothing moves, the flank's force is the
+    line force F = |tau_A|/rAb and its deflection F/k_lumped (backward: dte = -j_n - F/k with
+    j_n the actual backlash, here also at a larger centre distance); F_f1 + F_f2 = F_fwd,
+    each gated object F/n_g; P_loss = 0 at rest; k_mesh = k_lumped; the other flank is open.
+    Bounds: the state stays at its start to rounding (1e-12 relative: an equilibrium of the
+    linear right-hand side, integrated at rtol 1e-10, moves only by roundoff)."""
+    sv = dict(gear, **LUMPED, c_lumped=3000.0)
+    m, y0, F, delta, dte = at_rest(sv, 50.0 * flank, flank=flank)
+    g = m.g
+    if "center_distance_error" in gear:             # the actual j_n, not the nominal
+        assert abs(g.backlash_actual - 5e-5) > 1e-5
+    res = m.simulate(0.005, 1e-4, y0=y0, rtol=1e-10)
+    col = res.column
+    assert np.max(np.abs(col("dte") - dte)) <= 1e-12 * abs(dte)
+    assert np.max(np.abs(col("w_A"))) < 1e-9 and np.max(np.abs(col("w_B"))) < 1e-9
+    on, off = ("F_fwd", "F_bwd") if flank == 1 else ("F_bwd", "F_fwd")
+    n_on, n_off = ("n_fwd", "n_bwd") if flank == 1 else ("n_bwd", "n_fwd")
+    assert np.max(np.abs(col(on) - F)) <= 1e-10 * F
+    assert np.all(col(off) == 0.0) and np.all(col(n_off) == 0)
+    objs = ("F_f1", "F_f2") if flank == 1 else ("F_b1", "F_b2")
+    assert np.allclose(col(objs[0]) + col(objs[1]), col(on), rtol=1e-14, atol=0)
+    n = col(n_on)
+    assert np.all(n >= 1)
+    for o in objs:
+        carried = col(o) != 0.0
+        assert np.allclose(col(o)[carried], F / n[carried], rtol=1e-10, atol=0)
+    assert np.all(col("k_mesh") == 4e8)
+    assert np.max(np.abs(col("P_loss"))) < 1e-12
+    assert abs(delta - F / 4e8) <= 1e-16 * delta
+
+
+def test_lumped_static_deflection_varies_with_known_n():
+    """k_lumped_varies on the paper rig (eps = 1.1): at the scene start (u_A = dte_start: f1 at
+    s_a + dte_start, f2 one base pitch further, both on the contact segment) n = 2 and the
+    static deflection is F/(2 k_lumped/eps); half a base pitch further on (u_A = p_b/2: only
+    s_A = s_a + p_b/2 lies in [s_a, s_b = s_a + 1.1 p_b]) n = 1 and it is F/(k_lumped/eps).
+    k_mesh is k_lumped n/eps.  Bounds as in test_lumped_static_deflection."""
+    sv = dict(LUMPED, k_lumped_varies=True, c_lumped=2000.0)
+    g = G.Geometry(G.make_params(sv))
+    assert abs(g.eps - 1.1) < 1e-14
+    for uA, n in ((None, 2), (0.5 * g.p_b, 1)):
+        m, y0, F, delta, dte = at_rest(sv, 100.0, uA=uA, n=n)
+        assert abs(delta - F / (4e8 * n / g.eps)) <= 1e-15 * delta
+        res = m.simulate(0.005, 1e-4, y0=y0, rtol=1e-10)
+        assert np.all(res.column("n_fwd") == n) and not res.events
+        assert np.max(np.abs(res.column("dte") - delta)) <= 1e-12 * delta
+        assert np.max(np.abs(res.column("F_fwd") - F)) <= 1e-10 * F
+        assert np.allclose(res.column("k_mesh"), 4e8 * n / g.eps, rtol=1e-15, atol=0)
+
+
+def zero_crossings(t, x):
+    """Upward zero crossings of x(t), linearly interpolated."""
+    i = np.flatnonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))
+    return t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
+
+
+@pytest.mark.parametrize("gear,varies,uA,n", [(dict(), False, None, 2), (dict(), True, "half", 1),
+                                              (dict(), True, None, 2), (INTERNAL, False, None, 2)],
+                         ids=["paper", "paper-varies-n1", "paper-varies-n2", "internal"])
+def test_lumped_small_oscillation_frequency(gear, varies, uA, n):
+    """Undamped (c_lumped = 0), about the static load at rest, displaced by 10 % of the static
+    deflection (delta stays > 0; the wheels move by < 1e-3 p_b, less than the start's distance
+    to the nearest gate edge: no event): the mesh mode's frequency is sqrt(k_eff/m_eq)/(2 pi),
+    m_eq = 1/(rAb^2/J_A + rBb^2/J_B) (the rigid mode carries no net torque and stays at rest),
+    and its amplitude stays.  n: the pairs gated at the start position (2 at the scene start of
+    both pairs, eps = 1.1 and 1.735; 1 half a base pitch on, eps = 1.1).  Measured from the
+    upward zero crossings of dte - delta over ~10 periods on a grid of 1/400 period: a sine's
+    curvature vanishes at its zeros, so linear interpolation errs by ~(2 pi/400)^3/6 < 1e-6 of a
+    grid step, < 3e-9 of a period per crossing, and the integration (rtol 1e-11) adds ~1e-11 of
+    phase per period: bound 1e-8 relative on the frequency.  The amplitude over the last period:
+    the grid samples the peak to 1 - cos(pi/400) < 3.1e-5."""
+    sv = dict(gear, **LUMPED, c_lumped=0.0, k_lumped_varies=varies)
+    g = G.Geometry(G.make_params(sv))
+    u = 0.5 * g.p_b if uA == "half" else None
+    m, y0, F, delta, dte = at_rest(sv, 80.0, uA=u, n=n)
+    k_eff = m.lumped.k_eff(n)
+    f = math.sqrt(k_eff / m_eq(g, m.p)) / (2.0 * math.pi)
+    y0[1] += 0.1 * delta
+    T_end = 10.2 / f
+    res = m.simulate(T_end, 1.0 / (400.0 * f), y0=y0, rtol=1e-11)
+    assert not res.events and np.all(res.column("n_fwd") == n)
+    t, x = res.column("time"), res.column("dte") - delta
+    tc = zero_crossings(t, x)
+    assert len(tc) >= 9
+    f_meas = (len(tc) - 1) / (tc[-1] - tc[0])
+    assert abs(f_meas / f - 1.0) < 1e-8, (f_meas, f)
+    last = t > t[-1] - 1.0 / f
+    assert abs(np.max(np.abs(x[last])) / (0.1 * delta) - 1.0) < 3.1e-5
+
+
+def lumped_energy_balance(m, res):
+    """(E_kin + E_el - W_ext + W_loss)(end) - (same)(0), the sum of the elastic-energy jumps at
+    the events (stiffness switches), the sum of their magnitudes, W_loss(end), max E_kin."""
+    L = m.lumped
+    seg0, segN = res.energy["segments"][0], res.energy["segments"][-1]
+    y0, y1 = seg0[2](seg0[0]), segN[2](segN[1])
+    E0 = L.kinetic_energy(y0) + L.elastic_energy(y0, seg0[3])
+    E1 = L.kinetic_energy(y1) + L.elastic_energy(y1, segN[3])
+    dU = [L.elastic_energy(y, after) - L.elastic_energy(y, before)
+          for _, y, before, after in res.energy["jumps"]]
+    return E1 - E0 - y1[4] + y1[5], sum(dU), sum(abs(x) for x in dU), y1[5], max(E0, E1)
+
+
+@pytest.mark.parametrize("c,varies", [(0.0, False), (5591.0, False), (0.0, True)],
+                         ids=["elastic", "damped", "varies"])
+def test_lumped_energy_balance(c, varies):
+    """The paper rig through reversal.input.csv's load reversal (contact onsets, separations,
+    re-impacts across the backlash, pair switches): E_kin + E_el - W_ext + W_loss is constant.
+    c_lumped = 0 and constant k: no jump at all (onsets and separations at delta = 0, switches
+    without a stiffness change), W_loss = 0.  c_lumped > 0: W_loss = int c (d delta/dt)^2 > 0
+    closes it.  k_lumped_varies: the jumps k_eff delta^2/2 at the stiffness switches close it
+    (E_gate).  Bound rtol x max E_kin (test_train_ref.test_energy_residual's argument: the
+    energy and the works, integrated with the state at rtol, drift by ~rtol x E_kin)."""
+    rtol = 1e-10
+    sv = dict(PAPER, **LUMPED, c_lumped=c, k_lumped_varies=varies, **RUNNING)
+    sv["dte_start"] = G.quasi_static_dte(sv, 2)
+    m = G.GearMesh(sv)
+    inp = G.InputTable.from_csv(os.path.join(G.SCENES_DIR, "reversal.input.csv"), 100.0, 0.0)
+    res = m.simulate(0.1, 1e-3, inp, rtol=rtol, energy=True)
+    resid, jumps, total, W_loss, E = lumped_energy_balance(m, res)
+    assert res.column("n_bwd").max() > 0 and res.column("n_fwd").max() > 0   # both flanks
+    bound = rtol * E
+    assert abs(resid - jumps) < bound, (resid, jumps, bound)
+    if varies:
+        assert total > 1e3 * bound                  # the switches' jumps are booked
+    else:
+        assert total < 1e-20                        # delta = 0 at every onset and separation
+    if c == 0.0:
+        assert W_loss == 0.0
+    else:
+        assert W_loss > 1e3 * bound and res.column("P_loss").min() >= 0.0
+
+
+def test_lumped_outputs_semantics():
+    """The lumped scene's reference (scenes/lumped.toml): F = k delta + c delta' is not clipped
+    (negative just before a damped separation), 0 in the gap; F_fwd = F_f1 + F_f2 with each
+    gated object F/n_g; n_fwd = n_g while in contact, 0 in the gap; P_loss = c v^2 on a flank in
+    contact; k_mesh = k_lumped in contact; chi and mu play no part (the same trajectory with
+    them set)."""
+    sc = G.load_scene("lumped")
+    m, inp = G.scene_model(sc)
+    res = m.simulate(sc["stop_time"], sc["output_interval"], inp)
+    col = res.column
+    k, c = m.p["k_lumped"], m.p["c_lumped"]
+    dte = col("dte")
+    assert col("F_fwd").min() < -10.0 and col("F_bwd").min() < -10.0
+    fwd, bwd = col("n_fwd") > 0, col("n_bwd") > 0
+    assert not np.any(fwd & bwd)
+    assert np.all(col("F_fwd")[~fwd] == 0.0) and np.all(col("F_bwd")[~bwd] == 0.0)
+    # in contact delta >= 0, but for the row before a separation event: its time is located to a
+    # few ulps of t (~1e-17 s) at separation speeds ~0.1 m/s
+    assert np.all(dte[fwd] >= -1e-16) and np.all(-m.g.backlash - dte[bwd] >= -1e-16)
+    # F = k delta + c delta': recover delta' from the force and check P_loss = c delta'^2
+    for on, d, F in ((fwd, dte, col("F_fwd")), (bwd, -m.g.backlash - dte, col("F_bwd"))):
+        dd = (F[on] - k * d[on]) / c
+        assert np.allclose(col("P_loss")[on], c * dd * dd, rtol=1e-9, atol=1e-9)
+        assert np.allclose(col("k_mesh")[on], k, rtol=0, atol=0)
+    assert np.all(col("P_loss")[~(fwd | bwd)] == 0.0) and np.all(col("k_mesh")[~(fwd | bwd)] == 0.0)
+    assert np.allclose(col("F_f1") + col("F_f2"), col("F_fwd"), rtol=1e-14, atol=1e-12)
+    assert np.allclose(col("F_b1") + col("F_b2"), col("F_bwd"), rtol=1e-14, atol=1e-12)
+    two = col("n_fwd") == 2
+    assert two.sum() > 10 and np.allclose(col("F_f1")[two], col("F_fwd")[two] / 2, rtol=1e-14, atol=0)
+    m2 = G.GearMesh(dict(sc["start_values"], chi=10.0, mu=0.3))
+    res2 = m2.simulate(sc["stop_time"], sc["output_interval"], inp)
+    assert np.array_equal(res.table, res2.table)
+
+
+def test_lumped_gate_switches_and_mean_stiffness():
+    """k_lumped_varies on the steady scene (scenes/lumped-varies.toml): the switches are the
+    pairs entering at s_a and leaving at s_b, 2 z_A per revolution of A (eps in (1, 2)), and
+    the time mean of k_mesh over whole mesh cycles is k_lumped (its square wave k n/eps spends
+    the fraction eps - 1 of a cycle at n = 2): bound 1e-3, the mean speed varying by < 1e-3 and
+    the grid resolving each switch to 1/100 of a cycle over 14 cycles."""
+    sc = G.load_scene("lumped-varies")
+    m, inp = G.scene_model(sc)
+    res = m.simulate(sc["stop_time"], sc["output_interval"], inp)
+    sw = [e for e in res.events if e[1] > 0 and e[3] > 0 and e[1] != e[3]]
+    assert len(sw) == len(res.events) > 20                     # no separation: switches only
+    th = res.column("theta_A")
+    revs = (th[-1] - th[0]) / (2 * math.pi)
+    assert abs(len(sw) / revs - 2 * 22) <= 2 / revs + 1e-9
+    # whole mesh cycles: from the first single->double switch to the last one
+    up = [e[0] for e in sw if e[1] == 1 and e[3] == 2]
+    r = res.grid()
+    t = r[:, 0]
+    sel = (t >= up[0]) & (t < up[-1])
+    kmean = np.mean(r[sel, res.names.index("k_mesh")])
+    assert abs(kmean / m.p["k_lumped"] - 1.0) < 1e-3, kmean
+
+
+LUMPED_BAD = [
+    (dict(tip_relief_A=1e-5, tip_relief_length_A=1e-3), "shape deviations"),
+    (dict(ecc_A=1e-6), "shape deviations"),
+    (dict(pitch_errors_A=",".join(["1e-6"] * 22)), "shape deviations"),
+    (dict(slider_stiffness=1e8), "slider"),
+    (dict(k_lumped=0.0), "k_lumped"),
+    (dict(c_lumped=-1.0), "c_lumped"),
+]
+
+
+@pytest.mark.parametrize("extra,text", LUMPED_BAD, ids=[b[1] + str(i) for i, b in enumerate(LUMPED_BAD)])
+def test_lumped_refusals(extra, text):
+    with pytest.raises(ValueError) as info:
+        G.GearMesh(dict(LUMPED, **extra))
+    assert text in str(info.value), str(info.value)
+
+
+def test_lumped_accepts_both_geometries_and_internal_pairs():
+    for gear in (dict(), dict(geometry=2, module=0.003, zA=20, zB=40), INTERNAL,
+                 dict(INTERNAL, center_distance_error=1e-5)):
+        m = G.GearMesh(dict(gear, **LUMPED))
+        assert m.lumped is not None
+    with pytest.raises(NotImplementedError):       # the slider is not modelled by this reference
+        G.GearMesh(dict(slider_stiffness=1e8))

@@ -450,3 +450,126 @@ def test_defaults_are_the_agreed_ones():
     assert p["body[4].w_start"] == 100 / 2.25 and p["body[1].tau"] == 100.0
     assert (p["shaft[1].a"], p["shaft[1].b"], p["shaft[1].k"], p["shaft[1].d"]) == (2, 3, 1e5, 5.0)
     assert (p["mesh[3].A"], p["mesh[3].B"], p["mesh[1].chi"], p["mesh[1].zA"]) == (5, 6, 10.0, 22)
+
+
+# ------------------------------------------------------------------------------ 8. lumped mesh
+# contact_model = 4 (lateral.md section 4): the train's law (train_ref.TrainMesh, pairs numbered
+# by A's tooth count) against the single mesh's (lumped_ref.LumpedMesh, gearmesh_ref's pair
+# enumeration): the same torsional model, two codes.
+def single_scene_as_train(mesh_scene):
+    """A single-mesh scene's start values and inputs as a one-mesh, two-body train (placed as
+    scenes/train/single.toml: body[1].angle_start = alpha_w - s_a/rAb + tA/2 - dte_start/rAb)."""
+    sv = mesh_scene["start_values"]
+    m, inp = G.scene_model(mesh_scene)
+    p, g = m.p, m.g
+    tsv = {"n_bodies": 2, "n_shafts": 0, "n_meshes": 1,
+           "body[1].J": p["J_A"], "body[2].J": p["J_B"], "body[1].c": 0.0, "body[2].c": p["c_load"],
+           "body[1].tau": p["tau_A"], "body[2].tau": p["tau_B"],
+           "body[1].w_start": p["w_A_start"], "body[2].w_start": p["w_B_start"],
+           "body[1].angle_start": g.alpha_w - g.s_a / g.rAb + g.tA / 2 - p["dte_start"] / g.rAb,
+           "mesh[1].A": 1, "mesh[1].B": 2}
+    for k, v in sv.items():
+        if k in T.MESH_PAIR_KEYS:
+            tsv[f"mesh[1].{k}"] = v
+    tinp = T.TrainInputs(inp.t, np.column_stack([inp.a, inp.b]))
+    return m, inp, T.GearTrain(tsv), tinp
+
+
+LUMPED_AS_TRAIN = {"dte": "mesh[1].dte", "w_A": "body[1].w", "w_B": "body[2].w",
+                   "F_fwd": "mesh[1].F_fwd", "F_bwd": "mesh[1].F_bwd", "F_f1": "mesh[1].F_f1",
+                   "F_f2": "mesh[1].F_f2", "P_loss": "mesh[1].P_loss", "k_mesh": "mesh[1].k_mesh"}
+
+
+@pytest.mark.parametrize("name", ["lumped", "lumped-varies"])
+def test_lumped_one_mesh_train_is_the_single_mesh(name):
+    """The single-mesh lumped scenes (a load reversal with re-impacts; the square-wave
+    stiffness) as one-mesh trains: every compared variable within 0.2 x the scene's tolerance
+    (two references each converged to 1/10 of it, test_one_mesh_two_bodies_is_the_single_mesh's
+    argument; the F_b1/F_b2 split too, within F_bwd's), the contact state (n_fwd, n_bwd) equal on
+    the grid, the same events within 1e-9 s (the event times agree to rounding x the line speed
+    and the speeds' integration error, ~1e-11 s)."""
+    sc = G.load_scene(name)
+    m, inp, tr, tinp = single_scene_as_train(sc)
+    rm = m.simulate(sc["stop_time"], sc["output_interval"], inp, rtol=RTOL)
+    rt = tr.simulate(sc["stop_time"], sc["output_interval"], tinp, rtol=RTOL)
+    gm, gt = rm.grid(), rt.grid()
+    tol = sc["compare"]["tolerance"]
+    assert gm.shape[0] == gt.shape[0]
+    pairs = dict(LUMPED_AS_TRAIN, F_b1="mesh[1].F_b1", F_b2="mesh[1].F_b2")
+    for mn, tn in pairs.items():
+        bound = 0.2 * tol.get(mn, tol.get("F_bwd", tol["F_fwd"]))
+        d = np.max(np.abs(gt[:, rt.names.index(tn)] - gm[:, rm.names.index(mn)]))
+        assert d <= bound, (mn, d, bound)
+    for mn in ("n_fwd", "n_bwd"):
+        assert np.array_equal(gt[:, rt.names.index(f"mesh[1].{mn}")], gm[:, rm.names.index(mn)])
+    assert len(rt.events) == len(rm.events) > 20
+    assert max(abs(a[0] - b[0]) for a, b in zip(rt.events, rm.events)) < 1e-9
+
+
+def test_lumped_planetary_energy_residual():
+    """scenes/train/lumped-planetary.toml (six lumped meshes, one with the square-wave
+    stiffness) over its first 10 ms: E_kin + E_el + W_loss - W_ext - E_gate is conserved, bound
+    rtol x max E_kin (test_energy_residual's argument); the stiffness switches of mesh 1 are
+    booked in E_gate (> 100 x the bound) and the damping in W_loss; every lumped mesh reports
+    k_mesh = k_lumped (constant ones) or k_lumped n/eps (mesh 1)."""
+    sc = T.load_scene("lumped-planetary")
+    tr, inputs = T.scene_model(sc)
+    res = tr.simulate(0.01, sc["output_interval"], inputs, rtol=RTOL)
+    bound = RTOL * res.column("E_kin").max()
+    assert np.max(np.abs(res.column("energy_residual"))) < bound
+    assert np.max(np.abs(res.column("E_gate"))) > 1e2 * bound
+    assert res.column("W_loss")[-1] > 1e2 * bound
+    k = sc["start_values"]["mesh[1].k_lumped"]
+    eps = tr.meshes[0].g.eps
+    assert np.allclose(res.column("mesh[1].k_mesh"), k * res.column("mesh[1].n_fwd") / eps,
+                       rtol=1e-15, atol=0)
+    for m in range(2, 7):
+        assert np.all(res.column(f"mesh[{m}].k_mesh") == k)
+    assert set(np.unique(res.column("mesh[1].n_fwd"))) == {1.0, 2.0}
+
+
+def test_lumped_planetary_static_start():
+    """scenes/train/lumped-planetary.toml stores train_ref.quasi_static_start's numbers (to the
+    last digits, as test_scene_start_values_are_the_quasi_static_start); at t = 0 (rigid speeds:
+    every mesh's d(delta)/dt = 0) each mesh's force is its spring's, F = k_eff dte with k_eff =
+    k_lumped n/eps on the varying mesh 1 (n its gated pairs) and k_lumped on the others (1e-14);
+    the set is at its Willis speeds with the carrier drag balancing the sun, so the sun-planet
+    forces carry T_sun/rb_sun (1e-8: the static solve's convergence)."""
+    sc = T.load_scene("lumped-planetary")
+    sv = sc["start_values"]
+    qs = T.quasi_static_start(sv)
+    for k, v in qs.items():
+        if "dte_start" in k or "w_start" in k:
+            assert abs(v - sv[k]) <= 1e-12 * abs(v) + 1e-300, (k, v, sv[k])
+    tr = T.GearTrain(sv)
+    y = tr.initial_state()
+    tau = np.array([b.tau for b in tr.bodies])
+    row = tr.outputs(0.0, y, tr.classify(0.0, y, tau), 0.0)
+    col = dict(zip(tr.output_names(), row))
+    k = sv["mesh[1].k_lumped"]
+    for mesh in tr.meshes:
+        m = mesh.m
+        n = col[f"mesh[{m}].n_fwd"]
+        k_eff = k * n / mesh.g.eps if m == 1 else k
+        assert n >= 1 and col[f"mesh[{m}].n_bwd"] == 0
+        assert abs(col[f"mesh[{m}].F_fwd"] - k_eff * col[f"mesh[{m}].dte"]) <= 1e-14 * col[f"mesh[{m}].F_fwd"]
+        assert col[f"mesh[{m}].k_mesh"] == k_eff
+    Fsum = sum(col[f"mesh[{m}].F_fwd"] for m in (1, 2, 3))
+    assert abs(Fsum - tau[0] / tr.meshes[0].g.rAb) <= 1e-8 * Fsum
+
+
+LUMPED_BAD = [
+    ({"mesh[1].contact_model": 4, "mesh[1].tip_relief_A": 1e-5, "mesh[1].tip_relief_length_A": 1e-3},
+     ValueError, "mesh[1]: contact_model = 4"),
+    ({"mesh[2].contact_model": 4, "mesh[2].k_lumped": 0.0}, ValueError, "mesh[2]: k_lumped"),
+    ({"mesh[2].contact_model": 4, "mesh[2].c_lumped": -5.0}, ValueError, "mesh[2]: c_lumped"),
+    ({"mesh[1].slider_stiffness": 1e8}, KeyError, "mesh[1].slider_stiffness"),
+    ({"mesh[1].contact_model": 5}, ValueError, "must be 1, 3 or 4"),
+]
+
+
+@pytest.mark.parametrize("sv,exc,text", LUMPED_BAD, ids=[b[2] for b in LUMPED_BAD])
+def test_lumped_validation_errors_name_the_mesh(sv, exc, text):
+    with pytest.raises(exc) as info:
+        T.GearTrain(sv)
+    assert text in str(info.value), str(info.value)

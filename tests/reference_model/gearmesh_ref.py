@@ -54,6 +54,14 @@ not used, so the traces of the base scenes do not change.  All can append the ou
 F_B_y (mesh force on B in the paper frame, rig-and-modes.md section 1;
 simulate(bearing_force=...), default: rigid only).
 
+contact_model = 4 (the lumped mesh, lateral.md section 4: one linear spring k_lumped and damper
+c_lumped along each flank's line of action, optionally the square-wave stiffness k_lumped n/eps)
+is lumped_ref.LumpedMesh, on the same pair enumeration and state; GearMesh.simulate dispatches to
+it and its outputs are OUTPUT_NAMES + k_mesh.  Its parameters k_lumped, c_lumped,
+k_lumped_varies are in DEFAULTS (ignored by the other models); slider_stiffness is known only so
+that contact model 4 can refuse the slider (any other model refuses a nonzero value with
+NotImplementedError: this reference has no slider).
+
 INTERNAL PAIR (internal = true, planetary.md section 1; standard geometry only).  In the interface
 frame (theta_B = -psi_B, forward drive turns both wheels the same way) the spec's internal objects
 give exactly the enumeration above: forward pair k has s_A = s_a + u_A - k p_b and delta = dte,
@@ -139,10 +147,15 @@ DEFAULTS = {
     "pitch_errors_A": "", "pitch_errors_B": "",
     # internal gear pair and the actual centre distance (planetary.md sections 1-2)
     "internal": False, "center_distance_error": 0.0,
+    # the lumped mesh (contact_model = 4, lateral.md section 4; lumped_ref.py)
+    "k_lumped": 4e8, "c_lumped": 0.0, "k_lumped_varies": False,
+    # the paper's slider S (rig-and-modes.md): not modelled by this reference; known only so that
+    # contact_model = 4 can refuse it (0 = no slider, the default)
+    "slider_stiffness": 0.0,
 }
 INTEGER_PARAMS = {"geometry", "zA_nominal", "zB_nominal", "zA", "zB", "contacts_per_flank", "solver",
                   "contact_model", "tip_relief_shape"}
-BOOLEAN_PARAMS = {"backward_contacts", "internal"}
+BOOLEAN_PARAMS = {"backward_contacts", "internal", "k_lumped_varies"}
 STRING_PARAMS = {"pitch_errors_A", "pitch_errors_B"}
 
 
@@ -614,13 +627,24 @@ class GearMesh:
     def __init__(self, start_values: dict | None = None):
         self.p = make_params(start_values)
         self.g = Geometry(self.p)
-        if self.p["contact_model"] not in (1, 2, 3):
-            raise ValueError(f"contact_model must be 1 (Johnson), 2 (rigid) or 3 (tooth structure), "
-                             f"got {self.p['contact_model']}")
+        if self.p["contact_model"] not in (1, 2, 3, 4):
+            raise ValueError(f"contact_model must be 1 (Johnson), 2 (rigid), 3 (tooth structure) "
+                             f"or 4 (lumped), got {self.p['contact_model']}")
         if not 0.0 <= self.p["restitution"] <= 1.0:
             raise ValueError(f"restitution must lie in [0, 1], got {self.p['restitution']!r}")
         from . import deviations_ref as D
         self.deviations = D.deviations_active(self.p)
+        # contact model 4 (lateral.md section 4): lumped_ref.LumpedMesh; its own checks (no shape
+        # deviations, no slider) raise ValueError there.  The other models never see it.
+        self.lumped = None
+        if self.p["contact_model"] == 4:
+            from . import lumped_ref as LR
+            self.lumped = LR.LumpedMesh(self)
+            self.dev_mesh = None
+            return
+        if self.p["slider_stiffness"] != 0.0:
+            raise NotImplementedError("the slider S (slider_stiffness != 0) is not modelled by this "
+                                      "reference")
         if self.g.internal:
             if self.p["contact_model"] == 3:
                 raise ValueError("contact_model = 3 (tooth structure) is not available yet for an "
@@ -1018,6 +1042,14 @@ class GearMesh:
         load_share); per_pair = True forces it for contact model 1 without deviations (tests)."""
         if bearing_force is None:
             bearing_force = self.p["contact_model"] == 2
+        if self.lumped is not None:
+            if per_pair:
+                raise ValueError("per_pair: the lumped mesh (contact_model = 4) tracks no pairs' forces")
+            return self.lumped.simulate(stop_time, output_interval, inputs, rtol=rtol, method=method,
+                                        energy=energy, max_restarts=max_restarts,
+                                        perturb_w_A=perturb_w_A, y0=y0,
+                                        bearing_force=bearing_force,
+                                        output_step_cap=output_step_cap)
         if bearing_force and self.g.internal:
             raise NotImplementedError("bearing force outputs of an internal pair are not "
                                       "implemented in this reference")
@@ -1897,7 +1929,8 @@ def quasi_static_dte(start_values: dict, n_pairs: int) -> float:
     w_A' = (tau_A + (rAb/rBb)(tau_B - c_load w_B)) / (J_A + J_B (rAb/rBb)^2); the line force
     is F = (tau_A - J_A w_A')/rAb, shared by n_pairs pairs; delta solves the Johnson law
     (eq. 5.1) for N = F/(n_pairs width) with rho_A + rho_B = L + delta (fixed point; internal
-    pair: rho_B - rho_A = L - delta).
+    pair: rho_B - rho_A = L - delta).  contact_model = 4: F / k_eff, with k_eff = k_lumped n/eps
+    (n = n_pairs) when k_lumped_varies, else k_lumped.
     Used for dte_start so that a scene starts without the large first transient."""
     m = GearMesh(start_values)
     p, g = m.p, m.g
@@ -1908,6 +1941,9 @@ def quasi_static_dte(start_values: dict, n_pairs: int) -> float:
     F = (p["tau_A"] - p["J_A"] * acc) / g.rAb
     if F <= 0.0:
         raise ValueError("no forward load at t = 0")
+    if m.lumped is not None:
+        # contact model 4: the spring k_eff (n_pairs = n of k_lumped n/eps when it varies)
+        return F / m.lumped.k_eff(n_pairs)
     N = F / (n_pairs * p["width"])
     d = johnson_delta(N, g.L, g.E_star)
     for _ in range(50):

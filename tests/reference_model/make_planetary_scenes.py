@@ -286,7 +286,51 @@ planet 4 places the ring, meshes 6-8 close loops. chi = 20 s/m; running start at
                    "mesh[5].dte", "mesh[1].F_bwd", "mesh[2].F_bwd", "mesh[5].F_bwd", "mesh[6].F_bwd"])
 
 
-SCENES = [scene_simple, scene_mounted, scene_pin_error, scene_two_stage, scene_power_split]
+# the lumped mesh (lateral.md section 4) on planetary-simple's set
+K_LUMPED, C_LUMPED = 1e9, 1800.0
+
+
+def scene_lumped_planetary():
+    name, sv, _desc, stop, dt, _cmp = scene_simple()
+    J_s, J_p = sv["body[1].J"], sv["body[3].J"]
+    ext = G.Geometry(G.make_params(dict(geometry=2, module=MODULE, zA=21, zB=18, xA=X_SUN,
+                                        xB=X_PLANET, width=WIDTH, backlash=BACKLASH)))
+    inn = G.Geometry(G.make_params(dict(geometry=2, internal=True, module=MODULE, zA=18, zB=57,
+                                        xA=X_PLANET, xB=X_RING, width=WIDTH, backlash=BACKLASH)))
+    m_sp = 1.0 / (ext.rAb ** 2 / J_s + ext.rBb ** 2 / J_p)
+    m_pr = J_p / inn.rAb ** 2
+    z_sp = C_LUMPED / (2.0 * math.sqrt(K_LUMPED * m_sp))
+    z_pr = C_LUMPED / (2.0 * math.sqrt(K_LUMPED * m_pr))
+    for m in range(1, 7):
+        del sv[f"mesh[{m}].chi"]                # ignored by the lumped mesh
+        sv[f"mesh[{m}].contact_model"] = 4
+        sv[f"mesh[{m}].k_lumped"] = K_LUMPED
+        sv[f"mesh[{m}].c_lumped"] = C_LUMPED
+    sv["mesh[1].k_lumped_varies"] = True
+    desc = f"""planetary-simple's set (21/18/57, three planets, ring fixed, sun 50 N.m at 100 rad/s, \
+carrier drag absorbing 185.714 N.m at the Willis speed 26.9231 rad/s; its description gives the gear \
+data) with every mesh the lumped mesh (contact_model = 4, lateral.md section 4), torsional only: one \
+linear spring-damper along each flank's line of action, no friction, chi ignored. \
+k_lumped = {K_LUMPED:.3g} N/m on all six meshes, of the order of the set's Johnson mesh stiffness \
+(at planetary-simple's static load one pair's tangent stiffness is 6.47e8 N/m; times the contact \
+ratios 1.439 (sun-planet) and 1.722 (planet-ring): 9.3e8 and 1.11e9 N/m). c_lumped = {C_LUMPED:g} N.s/m \
+on all six: {100 * z_sp:.1f} % of critical damping of a sun-planet mesh alone \
+(m_eq = 1/(rb_sun^2/J_sun + rb_planet^2/J_planet) = {m_sp:.4f} kg, critical 2 sqrt(k m_eq) = \
+{2 * math.sqrt(K_LUMPED * m_sp):.4g} N.s/m) and {100 * z_pr:.1f} % of a planet-ring mesh (the ring \
+fixed: m_eq = J_planet/rb_planet^2 = {m_pr:.4f} kg). Mesh 1 (sun - planet 1) alone has \
+k_lumped_varies = true: its stiffness is the square wave k_lumped n/eps, 6.95e8 N/m with one pair \
+on the contact segment, 1.39e9 N/m with two, switching (events) at the sun-planet tooth frequency \
+21 x (100 - 26.92)/(2 pi) = 244 Hz; the other five springs are constant, so planet 1's share of the \
+sun's torque oscillates against planets 2 and 3 (whose meshes stay in phase with each other). \
+Running start at the static loads the compliant set shares (train_ref.quasi_static_start)."""
+    return "lumped-planetary", sv, desc, stop, dt, dict(
+        variables=["body[1].w", "body[2].w", "body[3].w", "body[4].w", "mesh[1].dte", "mesh[2].dte",
+                   "mesh[4].dte", "mesh[1].F_fwd", "mesh[2].F_fwd", "mesh[3].F_fwd", "mesh[4].F_fwd",
+                   "mesh[1].F_f1", "mesh[1].k_mesh", "mesh[1].P_loss", "housing.tau"])
+
+
+SCENES = [scene_simple, scene_mounted, scene_pin_error, scene_two_stage, scene_power_split,
+          scene_lumped_planetary]
 
 
 def fmt(v):

@@ -87,6 +87,19 @@ pairing, gating, events and placement code is shared, and only the force differs
 (whose forward-sense table is the external one: planetary.md section 1's paper-frame table with
 theta_B = -psi_B).
 
+LUMPED MESHES (mesh[m].contact_model = 4, lateral.md section 4; torsional only, no lateral
+bodies).  The same law as lumped_ref.py (its docstring states it): per flank in contact
+(delta > 0, forward dte, backward -j_n - dte with the actual backlash) F = k_eff delta +
+c_lumped d(delta)/dt, not clipped, no chi, no friction, torques as model 1's normal force;
+k_eff = k_lumped, or k_lumped n/eps with mesh[m].k_lumped_varies, n the flank's pairs whose s_A
+lies in [s_a, s_b] (A's coordinate only: the lower gate edge is s_a, not model 1's B-tip edge).
+MeshState.kf (kb) holds the gated pairs of a flank in contact (empty in the gap), so n_fwd,
+n_bwd = n_g there and 0 in the gap; F_f1 ... F_b2 = F/n_g per gated object; P_loss = c_lumped
+(d delta/dt)^2; the extra output mesh[m].k_mesh (only for a lumped mesh, after its P_loss) = the
+sum of k_eff over the flanks in contact.  Events: delta through 0 and, on a flank in contact, the
+gate edges s_A = s_b and s_A = s_a (periodic functions of u_A); no release event.  E_el = k_eff
+delta^2/2 per flank in contact; a stiffness switch is a jump of E_el, booked in E_gate.
+
 CENTRE DISTANCE (planetary.md section 2): mesh[m].center_distance_error goes to the single
 mesh's Geometry, which computes alpha_w, d, L, s_a and the actual backlash at the actual
 distance; the train uses those everywhere (center_angle is still the direction of O_A -> O_B).
@@ -155,7 +168,7 @@ CAPACITY = {"body": 16, "shaft": 15, "mesh": 16}
 # Single-mesh parameters that do not belong to a pair (spec section 1): bodies carry inertia,
 # drag, start speed and torque; solver and tolerance belong to the whole train.
 NOT_PER_MESH = {"J_A", "J_B", "c_load", "w_A_start", "w_B_start", "tau_A", "tau_B",
-                "solver", "rel_tol", "restitution"}
+                "solver", "rel_tol", "restitution", "slider_stiffness"}
 MESH_PAIR_KEYS = [k for k in G.DEFAULTS if k not in NOT_PER_MESH]
 MESH_PLACE_KEYS = {"A": 0, "B": 0, "center_angle": 0.0, "mount_A": 0.0, "mount_B": 0.0}
 SHAFT_KEYS = ("a", "b", "k", "d", "twist_start")
@@ -354,6 +367,14 @@ class TrainMesh:
         self.bwd = bool(p["backward_contacts"])
         g = self.g
         self.window_active = g.eps > g.m_c + 1e-12
+        # contact_model = 4, the lumped mesh (module docstring, LUMPED MESHES)
+        self.lumped = p["contact_model"] == 4
+        self.k_l, self.c_l = p["k_lumped"], p["c_lumped"]
+        self.varies = bool(p["k_lumped_varies"])
+
+    def k_eff(self, n):
+        """Lumped mesh: k_lumped, or k_lumped n / eps with k_lumped_varies (n gated pairs)."""
+        return self.k_l * n / self.g.eps if self.varies else self.k_l
 
     # ---------------------------------------------------------------- placement (spec 3-4)
     def chi_of(self, psi, mount):
@@ -483,6 +504,8 @@ class TrainMesh:
     # ---------------------------------------------------------------- forces
     def torques(self, uA, dte, wA, wB, v, kf, kb, detail=False):
         """Mesh torques on A and B (forward sense) and P_loss for fixed carrying sets."""
+        if self.lumped:
+            return self._torques_lumped(dte, v, kf, kb, detail)
         g = self.g
         rAb, rBb, L, kap = g.rAb, g.rBb, g.L, g.kappa
         mA = mB = ploss = 0.0
@@ -519,8 +542,36 @@ class TrainMesh:
             return mA, mB, ploss, forces
         return mA, mB, ploss
 
+    def _torques_lumped(self, dte, v, kf, kb, detail):
+        """The lumped mesh: per flank in contact (kf, kb: its gated pairs) F = k_eff delta +
+        c_lumped d(delta)/dt (not clipped), acting as model 1's normal force of that flank; each
+        gated object reports F / n_g; P_loss = c_lumped (d delta/dt)^2."""
+        g = self.g
+        mA = mB = ploss = 0.0
+        forces = []
+        for flank, ks in ((1, kf), (-1, kb)):
+            if not ks:
+                continue
+            d, dd = (dte, v) if flank == 1 else (-g.backlash - dte, -v)
+            F = self.k_eff(len(ks)) * d + self.c_l * dd
+            ploss += self.c_l * dd * dd
+            mA -= flank * F * g.rAb
+            mB += flank * F * g.rBb
+            if detail:
+                forces += [(flank, n, F / len(ks)) for n in ks]
+        if detail:
+            return mA, mB, ploss, forces
+        return mA, mB, ploss
+
+    def k_mesh(self, ms):
+        """Lumped mesh output k_mesh: the sum of k_eff over the flanks in contact."""
+        return sum(self.k_eff(len(ks)) for ks in (ms.kf, ms.kb) if ks)
+
     def elastic_energy(self, dte, ms):
         g = self.g
+        if self.lumped:     # k_eff delta^2 / 2 per flank in contact
+            return sum(0.5 * self.k_eff(len(ks)) * d * d
+                       for ks, d in ((ms.kf, dte), (ms.kb, -g.backlash - dte)) if ks)
         U = 0.0
         if ms.kf:
             U += len(ms.kf) * pair_energy(self, dte)
@@ -775,11 +826,15 @@ class GearTrain:
         if cm == 2:
             raise ValueError(f"mesh[{m}].contact_model = 2: rigid contact is not available in a "
                              "gear train (gear-train.md section 1); use 1 (Johnson) or 3")
-        if cm == 3 or D.deviations_active(mp):
+        if cm == 4:
+            # the lumped mesh (lateral.md section 4): its refusals (ValueError) in lumped_ref
+            from . import lumped_ref as LR
+            LR.check_lumped_params(mp, f"mesh[{m}]: ")
+        elif cm == 3 or D.deviations_active(mp):
             raise NotImplementedError(f"mesh[{m}]: contact model 3 and shape deviations are not "
-                                      "implemented in the train reference (contact model 1 only)")
-        if cm != 1:
-            raise ValueError(f"mesh[{m}].contact_model = {cm}: must be 1 or 3")
+                                      "implemented in the train reference (contact models 1 and 4)")
+        elif cm != 1:
+            raise ValueError(f"mesh[{m}].contact_model = {cm}: must be 1, 3 or 4")
         try:
             _nm_, A, B = self.edges[m - 1]
             return TrainMesh(m, mp, A, B,
@@ -1428,6 +1483,8 @@ class GearTrain:
 
     def _decide_mesh(self, mesh, k, tie_aware):
         """Carrying pairs of one mesh just after now (k: its kinematics)."""
+        if mesh.lumped:
+            return self._decide_mesh_lumped(mesh, k, tie_aware)
         g = mesh.g
         rAb, rBb, pb = g.rAb, g.rBb, g.p_b
         uA, uB, wA, wB, aA, aB = k["uA"], k["uB"], k["wA"], k["wB"], k["aA"], k["aB"]
@@ -1475,6 +1532,45 @@ class GearTrain:
             sig["ub"] = self._periodic_sign(pb, mesh.sA_b(uA, 0) - g.s_b, -rAb * wA, -rAb * aA)
             sig["lb"] = self._periodic_sign(pb, mesh.sB_b(uB, -mesh.Kb) - tipB, rBb * wB, rBb * aB)
         return MeshState(on_f, on_b, tuple(kf), tuple(kb), sig)
+
+    def _decide_mesh_lumped(self, mesh, k, tie_aware):
+        """The lumped mesh: which flanks touch (delta > 0) and, for each, its gated pairs
+        s_a <= s_A <= s_b (A's coordinate only; the m_c-pitch window as model 1 when
+        contacts_per_flank < eps).  MeshState.kf (kb) = the gated pairs of a flank in contact,
+        else empty.  Event signs: df/db the deflections, uf/ub the upper gate edges (as model
+        1), lf/lb the lower edges s_A = s_a."""
+        g = mesh.g
+        rAb, pb = g.rAb, g.p_b
+        uA, wA, aA = k["uA"], k["wA"], k["aA"]
+        e, v, e2 = k["e"], k["v"], k["e2"]
+
+        def side(c, c1, c2, tol):
+            return self._side(c, c1, c2, tol) if tie_aware else c >= -tol
+
+        on_f = side(e, v, e2, self.TOL_DELTA)
+        on_b = mesh.bwd and side(-g.backlash - e, -v, -e2, self.TOL_DELTA)
+        sig = {"df": 1.0 if on_f else -1.0}
+        if mesh.bwd:
+            sig["db"] = 1.0 if on_b else -1.0
+        lo_win = g.s_b - g.m_c * pb
+        out = {}
+        for flank, on, sA_of in ((1, on_f, mesh.sA_f), (-1, on_b, mesh.sA_b)):
+            ks = []
+            if on:
+                r1, r2 = flank * rAb * wA, flank * rAb * aA       # d s_A/dt, d2 s_A/dt2
+                for n in mesh.candidates(sA_of(uA, 0), flank):
+                    sA = sA_of(uA, n)
+                    ok = (side(g.s_b - sA, -r1, -r2, self.TOL_POS)
+                          and side(sA - g.s_a, r1, r2, self.TOL_POS))
+                    if ok and mesh.window_active:
+                        ok = side(sA - lo_win, r1, r2, self.TOL_POS)
+                    if ok:
+                        ks.append(n)
+                f = "f" if flank == 1 else "b"
+                sig["u" + f] = self._periodic_sign(pb, sA_of(uA, 0) - g.s_b, r1, r2)
+                sig["l" + f] = self._periodic_sign(pb, sA_of(uA, 0) - g.s_a, r1, r2)
+            out[flank] = tuple(ks)
+        return MeshState(on_f, bool(on_b), out[1], out[-1], sig)
 
     def _periodic_sign(self, pb, xi, xi1, xi2):
         """Sign s such that s sin(pi xi/p_b) >= 0 just after now."""
@@ -1557,7 +1653,17 @@ class GearTrain:
                     sdb * (-jb - k["e"]), -sdb * k["v"], -sdb * k["e2"], self.TOL_DELTA, 1e-20)
             tipB = g.L - g.s_a
             rAb, rBb = g.rAb, g.rBb
-            if ms.on_f:
+            if mesh.lumped:
+                # lumped mesh: the gate edges s_A = s_b (u) and s_A = s_a (l) of a flank in
+                # contact, both on A's coordinate; no release event (F is not clipped)
+                for on, f, sgn, S0 in ((ms.on_f, "f", 1.0, mesh.SfA), (ms.on_b, "b", -1.0, mesh.SbA)):
+                    if not on:
+                        continue
+                    for edge, s_edge in (("u", g.s_b), ("l", g.s_a)):
+                        add_periodic(pb, s[edge + f], sgn * mesh.cA, S0 - s_edge,
+                                     S0 + sgn * k["uA"] - s_edge, sgn * rAb * k["wA"],
+                                     sgn * rAb * k["aA"])
+            if not mesh.lumped and ms.on_f:
                 # s_A(n) - s_b = SfA - s_b + u_A (mod p_b);  s_B(n) - tipB = SfB - tipB - u_B ...
                 add_periodic(pb, s["uf"], mesh.cA, mesh.SfA - g.s_b,
                              mesh.sA_f(k["uA"], 0) - g.s_b, rAb * k["wA"], rAb * k["aA"])
@@ -1567,7 +1673,7 @@ class GearTrain:
                     srf, chi = s["rf"], mesh.chi
                     add(lambda t, yy, srf=srf, chi=chi, vf=vf: srf * (1.0 + chi * vf(yy)),
                         srf * (1.0 + chi * k["v"]), srf * chi * k["e2"], 0.0, self.TOL_REL, 1e-14)
-            if ms.on_b:
+            if not mesh.lumped and ms.on_b:
                 add_periodic(pb, s["ub"], -mesh.cA, mesh.SbA - g.s_b,
                              mesh.sA_b(k["uA"], 0) - g.s_b, -rAb * k["wA"], -rAb * k["aA"])
                 add_periodic(pb, s["lb"], mesh.cB, mesh.SbB - tipB,
@@ -1626,6 +1732,8 @@ class GearTrain:
         g = mesh.g
         tmax = float(np.sum(inputs.max_abs())) + sum(b.c * abs(b.w0) for b in self.bodies)
         F = max(tmax / min(g.rAb, g.rBb), 1.0)
+        if mesh.lumped:
+            return F / mesh.k_eff(1)
         return G.johnson_delta(F / mesh.width, g.L, g.E_star)
 
     def atol(self, inputs, rtol):
@@ -1732,6 +1840,8 @@ class GearTrain:
         for m in range(1, self.nm + 1):
             names += [f"mesh[{m}].{v}" for v in ("dte", "F_fwd", "F_bwd", "n_fwd", "n_bwd", "F_f1",
                                                  "F_f2", "F_b1", "F_b2", "P_loss")]
+            if self.meshes[m - 1].lumped:     # a lumped mesh also reports its k_mesh
+                names.append(f"mesh[{m}].k_mesh")
         if self.general:
             names.append("housing.tau")
         return names + ["E_kin", "E_el", "E_gate", "W_ext", "W_loss", "energy_residual"]
@@ -1767,15 +1877,25 @@ class GearTrain:
             mA, mB, pl, forces = mesh.torques(mesh.g.rAb * thA, dte, wA, wB, self._e(mesh, xd),
                                               ms.kf, ms.kb, detail=True)
             hous += self._apply_mesh(np.zeros(self.nb + 1), mesh, mA, mB)
-            F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
-            for flank, nA, Fn in forces:
-                F[mesh.object_name(flank, nA)] += max(Fn, 0.0)
-            row += [dte, F["f1"] + F["f2"], F["b1"] + F["b2"], len(ms.kf), len(ms.kb),
-                    F["f1"], F["f2"], F["b1"], F["b2"], pl]
+            row += self._mesh_row(mesh, ms, dte, forces, pl)
         row.append(hous)
         E_kin = 0.5 * float(np.sum(self.J * w * w))
         E_el = self.elastic_energy(y, cfg)
         row += [E_kin, E_el, e_gate, y[2 * n], y[2 * n + 1]]
+        return row
+
+    @staticmethod
+    def _mesh_row(mesh, ms, dte, forces, pl):
+        """A mesh's output columns (output_names' order)."""
+        F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
+        for flank, nA, Fn in forces:
+            # model 1: reported >= 0 (at an event instant delta may be -1e-21 on the side that
+            # leaves); the lumped mesh's F is not clipped (lateral.md section 4, the brief)
+            F[mesh.object_name(flank, nA)] += Fn if mesh.lumped else max(Fn, 0.0)
+        row = [dte, F["f1"] + F["f2"], F["b1"] + F["b2"], len(ms.kf), len(ms.kb),
+               F["f1"], F["f2"], F["b1"], F["b2"], pl]
+        if mesh.lumped:
+            row.append(mesh.k_mesh(ms))
         return row
 
     def outputs(self, t, y, cfg, e_gate):
@@ -1794,12 +1914,7 @@ class GearTrain:
             dte = x[mesh.ie] + mesh.dte0
             _mA, _mB, pl, forces = mesh.torques(mesh.g.rAb * th[mesh.A], dte, w[mesh.A],
                                                 w[mesh.B], xd[mesh.ie], ms.kf, ms.kb, detail=True)
-            F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
-            for flank, nA, Fn in forces:
-                # reported >= 0: at an event instant delta may be -1e-21 on the side that leaves
-                F[mesh.object_name(flank, nA)] += max(Fn, 0.0)
-            row += [dte, F["f1"] + F["f2"], F["b1"] + F["b2"], len(ms.kf), len(ms.kb),
-                    F["f1"], F["f2"], F["b1"], F["b2"], pl]
+            row += self._mesh_row(mesh, ms, dte, forces, pl)
         E_kin = 0.5 * float(np.sum([b.J * wi * wi for b, wi in zip(self.bodies, w)]))
         E_el = self.elastic_energy(y, cfg)
         row += [E_kin, E_el, e_gate, y[2 * n], y[2 * n + 1]]
@@ -1925,6 +2040,8 @@ def static_delta(mesh: TrainMesh, F: float, n_pairs: int) -> float:
     """Penetration at which n_pairs pairs carry the line force F > 0 (Johnson law with
     rho_A + rho_B = L + delta; fixed point as gearmesh_ref.quasi_static_dte)."""
     g = mesh.g
+    if mesh.lumped:              # the lumped spring: F / k_eff (n = n_pairs when it varies)
+        return F / mesh.k_eff(n_pairs)
     N = F / (n_pairs * mesh.width)
     d = G.johnson_delta(N, g.L, g.E_star)
     for _ in range(50):

@@ -95,16 +95,6 @@ fn unsupported(g: &Gearbox) -> Result<(), String> {
             );
         }
     }
-    for m in &g.meshes {
-        if m.k_lumped.is_some() || m.c_lumped.is_some() || m.k_lumped_varies.is_some() {
-            return not_yet(
-                "mesh",
-                &m.name,
-                "k_lumped",
-                "the lumped mesh (lateral.md §4)",
-            );
-        }
-    }
     Ok(())
 }
 
@@ -307,6 +297,8 @@ fn mesh_values(
         ("center_angle", mesh.center_angle),
         ("center_distance_error", mesh.center_distance_error),
         ("dte_start", mesh.dte_start),
+        ("k_lumped", mesh.k_lumped),
+        ("c_lumped", mesh.c_lumped),
     ] {
         opt(put, k, x);
     }
@@ -319,8 +311,13 @@ fn mesh_values(
             put(at(k), Start::Integer(x as i32));
         }
     }
-    if let Some(x) = mesh.backward_contacts {
-        put(at("backward_contacts"), Start::Boolean(x));
+    for (k, x) in [
+        ("backward_contacts", mesh.backward_contacts),
+        ("k_lumped_varies", mesh.k_lumped_varies),
+    ] {
+        if let Some(x) = x {
+            put(at(k), Start::Boolean(x));
+        }
     }
     Ok(())
 }

@@ -47,7 +47,8 @@ impl System for PaperRig {
     /// At most a base pitch of contact travel: the objects' events recur every pitch, so a
     /// longer step is cut back at an event anyway, and the driver's cubic check finds a gate or
     /// window crossed twice inside a step. The compliant mesh keeps the quarter pitch it had
-    /// before that check, so its scenes keep their answers; its steps are set by the vibration
+    /// before that check, so its scenes keep their answers (the lumped mesh, newer, does not);
+    /// its steps are set by the vibration
     /// nearly everywhere. For an explicit method also `stability`/omega_n of the mesh vibration
     /// (2 for Dormand-Prince 5(4), 4 for DOP853: `dopri5::STABILITY`, `dop853::STABILITY`):
     /// near an equilibrium the error estimate sees nothing and would let the step grow until
@@ -56,7 +57,7 @@ impl System for PaperRig {
         let speed = self.geo.r_ab * y[crate::model::paper_rig::W_A].abs();
         let pitches = match self.law {
             crate::model::ContactModel::Compliant(_) => 0.25,
-            crate::model::ContactModel::Rigid { .. } => 1.0,
+            crate::model::ContactModel::Rigid { .. } | crate::model::ContactModel::Lumped(_) => 1.0,
         };
         let travel = if speed > 0.0 {
             pitches * self.geo.p_b / speed

@@ -55,13 +55,25 @@ pub enum Cut {
     Standard(Rack),
 }
 
-/// How the teeth meet: the paper's Johnson compliance, rigid contact with impacts, or the
-/// tooth structure in series with the local contact.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How the teeth meet: the paper's Johnson compliance, rigid contact with impacts, the
+/// tooth structure in series with the local contact, or the classical lumped spring.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MeshLaw {
     Johnson,
     Rigid,
     ToothStructure,
+    Lumped(Lumped),
+}
+
+/// The lumped-parameter mesh of Kahraman & Singh and Lin & Parker (lateral.md §4): one linear
+/// spring-damper along each flank's line of action, the teeth not tracked.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lumped {
+    /// Mean mesh stiffness \[N/m\] and viscous damping \[N.s/m\].
+    pub k: f64,
+    pub c: f64,
+    /// The classical square wave: k n / eps with n the pairs on the contact segment.
+    pub varies: bool,
 }
 
 /// The tip relief's shape (both gears).

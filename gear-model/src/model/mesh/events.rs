@@ -134,7 +134,9 @@ impl GearMesh {
             EventFn::Top(k) => self.geo.s_b - self.s_contact(k, y),
             EventFn::Bottom(k) => self.s_contact(k, y) - self.geo.s_window_low(),
             EventFn::Gate(k) => {
-                self.s_contact(k, y) - delta(slot_flank(k)).0.max(0.0) - self.geo.s_a
+                self.s_contact(k, y)
+                    - self.gate_shift * delta(slot_flank(k)).0.max(0.0)
+                    - self.geo.s_a
             }
             EventFn::Pen(f) => delta(f).0,
             EventFn::Rel(_) if self.rigid() => f64::NAN,
@@ -238,7 +240,7 @@ impl GearMesh {
                 EventFn::Gate(k) => {
                     let f = slot_flank(k);
                     let (delta, rate) = d[f as usize];
-                    f.dir() * travel - if delta > 0.0 { rate } else { 0.0 }
+                    f.dir() * travel - self.gate_shift * if delta > 0.0 { rate } else { 0.0 }
                 }
                 EventFn::Pen(f) => d[f as usize].1,
                 EventFn::Rel(_) if self.rigid() => f64::NAN,
@@ -297,8 +299,9 @@ impl GearMesh {
             let s = self.s_contact(k, y);
             put(i, Some((g.s_b - s, -f.dir() * travel)));
             put(i + 1, Some((s - low, f.dir() * travel)));
-            let gate_rate = f.dir() * travel - if delta > 0.0 { rate } else { 0.0 };
-            put(i + 2, Some((s - delta.max(0.0) - g.s_a, gate_rate)));
+            let shift = self.gate_shift;
+            let gate_rate = f.dir() * travel - shift * if delta > 0.0 { rate } else { 0.0 };
+            put(i + 2, Some((s - shift * delta.max(0.0) - g.s_a, gate_rate)));
         }
         for f in [Flank::Forward, Flank::Backward] {
             let (pen, rel) = (EventFn::Pen(f).index(), EventFn::Rel(f).index());
@@ -372,7 +375,9 @@ impl GearMesh {
             let rate = match e {
                 EventFn::Top(k) | EventFn::ReliefB(k) => -ds(k),
                 EventFn::Bottom(k) | EventFn::ReliefA(k) => ds(k),
-                EventFn::Gate(k) => ds(k) - if delta > 0.0 { ddelta } else { 0.0 },
+                EventFn::Gate(k) => {
+                    ds(k) - self.gate_shift * if delta > 0.0 { ddelta } else { 0.0 }
+                }
                 EventFn::Pen(_) | EventFn::PairPen(_) => ddelta,
                 EventFn::Rel(_) | EventFn::PairRel(_) => 0.0,
             };
@@ -495,7 +500,10 @@ impl GearMesh {
                 )
             }
         };
-        let smooth = idle_before && idle_jump(self);
+        // A constant lumped spring does not see which pairs it stands for.
+        let constant_spring = self.lumped().is_some_and(|l| !l.varies)
+            && matches!(e, EventFn::Top(_) | EventFn::Bottom(_) | EventFn::Gate(_));
+        let smooth = idle_before && idle_jump(self) || constant_spring;
         EventReport { what, smooth }
     }
 

@@ -1,7 +1,7 @@
 //! The forces of the carrying pairs (spec §4): Johnson's law or the tooth structure, damping,
 //! friction, the shape deviations' penetrations, and the torques they make on both wheels.
 
-use super::{GearMesh, Kin, DDTE, DTE, THETA_A, W_A};
+use super::{ContactModel, GearMesh, Kin, DDTE, DTE, THETA_A, W_A};
 use crate::model::contact::{slot_flank, EventFn, Flank, SLOTS, SLOT_NAMES};
 use crate::model::deviations::Deviations;
 use crate::model::johnson::OutOfRange;
@@ -122,14 +122,18 @@ impl GearMesh {
         (self.coef.mu * (v_s / self.coef.v_reg).tanh(), v_s)
     }
 
-    /// The compliant mesh's load at y; `pairs` also receives each slot's normal, friction and
-    /// elastic force. Errors only when the law leaves its range.
+    /// The compliant (or lumped) mesh's load at y; `pairs` also receives each slot's normal,
+    /// friction and elastic force. Errors only when the law leaves its range.
     pub fn compliant_load(
         &self,
         y: &Kin,
         mut pairs: Option<&mut SlotForces>,
     ) -> Result<MeshLoad, LawOutOfRange> {
-        let law = self.compliance().expect("compliant");
+        let law = match &self.law {
+            ContactModel::Compliant(law) => law,
+            ContactModel::Lumped(l) => return Ok(self.lumped_load(l, y, pairs)),
+            ContactModel::Rigid { .. } => unreachable!("a rigid mesh's load is its rig's"),
+        };
         let w_b = self.w_b(y);
         let mut m = MeshLoad::default();
         if let Some(d) = self.dev.as_deref() {

@@ -9,6 +9,7 @@
 
 mod events;
 mod forces;
+mod lumped;
 mod readout;
 
 pub use events::EventReport;
@@ -19,7 +20,7 @@ use super::contact::{self, slot_flank, EventFn, Flank, N_EVENTS, SLOTS};
 use super::deviations::Deviations;
 use super::geometry::Geometry;
 use super::law::{JohnsonLaw, Law};
-use super::pair::{Cut, MeshLaw, Pair};
+use super::pair::{Cut, Lumped, MeshLaw, Pair};
 use super::tooth_structure::structure_law;
 use super::ModelError;
 use serde::{Deserialize, Serialize};
@@ -61,6 +62,8 @@ pub enum ContactModel {
     /// `two_sided`: zero backlash and no slider, so both flanks touch at once and N may take
     /// either sign.
     Rigid { restitution: f64, two_sided: bool },
+    /// The lumped spring-damper on each flank (`contact_model = 4`, `lumped.rs`).
+    Lumped(Lumped),
 }
 
 impl Default for ContactModel {
@@ -130,6 +133,9 @@ pub struct MeshConfig {
     /// wanted, and a rigid lock on one flank no longer holds the other one open.
     pub slider: bool,
     pub origin: ToothOrigin,
+    /// 1 where a pair's gate opens a penetration after s_a (its contact point moves in by
+    /// delta), 0 for the lumped mesh, whose pairs are counted at their rigid positions.
+    pub gate_shift: f64,
 }
 
 /// The mesh: its configuration (`cfg`, read through Deref as `mesh.geo`, `self.law`...) and
@@ -201,11 +207,25 @@ impl GearMesh {
                 ContactModel::Compliant(Law::Structure(Arc::new(law)))
             }
             MeshLaw::Johnson => ContactModel::Compliant(Law::Johnson(JohnsonLaw::new(geo.l, geo.kappa, geo.e_star, p.width))),
+            MeshLaw::Lumped(l) => {
+                if p.mu > 0.0 {
+                    geo.warnings.push(format!(
+                        "parameter mu = {}: the lumped mesh (contact_model = 4) has no friction; mu is ignored",
+                        p.mu
+                    ));
+                }
+                ContactModel::Lumped(l)
+            }
         };
         let dev = Deviations::new(p, &geo)?.map(Arc::new);
         if dev.is_some() && p.law == MeshLaw::Rigid {
             return Err(ModelError::new(
                 "parameter contact_model = 2: shape deviations (tip relief, eccentricity, pitch errors) need a compliant contact model (1 or 3); the rigid contact has no penetration for them to add to".into(),
+            ));
+        }
+        if dev.is_some() && matches!(p.law, MeshLaw::Lumped(_)) {
+            return Err(ModelError::new(
+                "parameter contact_model = 4: shape deviations (tip relief, eccentricity, pitch errors) need a model that tracks the teeth (1 or 3); the lumped mesh does not".into(),
             ));
         }
         let mut present = [false; SLOTS];
@@ -253,6 +273,11 @@ impl GearMesh {
             }
         }
         let (sin_a, cos_a) = geo.alpha_w.sin_cos();
+        let gate_shift = if matches!(law, ContactModel::Lumped(_)) {
+            0.0
+        } else {
+            1.0
+        };
         let mut mesh = GearMesh {
             cfg: Arc::new(MeshConfig {
                 backlash: geo.j_n,
@@ -264,6 +289,7 @@ impl GearMesh {
                 dev,
                 slider,
                 origin,
+                gate_shift,
             }),
             coef: Coefficients::new(p),
             sigma,
@@ -272,6 +298,7 @@ impl GearMesh {
             describe_events: true,
         };
         mesh.set_sigma(sigma);
+        mesh.coef = mesh.own_coefficients(mesh.coef);
         Ok(mesh)
     }
 
@@ -418,18 +445,39 @@ impl GearMesh {
         }
     }
 
+    /// The coefficients this mesh's law uses: the lumped mesh has its own damper and no
+    /// friction, so Hunt-Crossley's chi and mu read 0 in it (no release events, no friction).
+    fn own_coefficients(&self, coef: Coefficients) -> Coefficients {
+        match self.law {
+            ContactModel::Lumped(_) => Coefficients {
+                chi: 0.0,
+                mu: 0.0,
+                ..coef
+            },
+            _ => coef,
+        }
+    }
+
+    /// The lumped mesh's spring-damper, if it is one.
+    pub fn lumped(&self) -> Option<&Lumped> {
+        match &self.law {
+            ContactModel::Lumped(l) => Some(l),
+            _ => None,
+        }
+    }
+
     /// The compliant law (none with rigid contact).
     pub fn compliance(&self) -> Option<&Law> {
         match &self.law {
             ContactModel::Compliant(l) => Some(l),
-            ContactModel::Rigid { .. } => None,
+            ContactModel::Rigid { .. } | ContactModel::Lumped(_) => None,
         }
     }
 
     /// New coefficients from a master: a release function comes into use when damping does.
     pub fn set_coefficients(&mut self, coef: Coefficients, y: &Kin) {
         let was_damped = self.damped();
-        self.coef = coef;
+        self.coef = self.own_coefficients(coef);
         if self.rigid() {
             return;
         }

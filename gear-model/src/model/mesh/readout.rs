@@ -78,6 +78,9 @@ impl GearMesh {
                 }
             }
         }
+        if let Some(l) = self.lumped() {
+            k_mesh = self.lumped_mesh_stiffness(l);
+        }
         MeshReadout {
             pair_force: pairs.map(|p| p.0),
             contact_point: s,
@@ -93,6 +96,9 @@ impl GearMesh {
 
     /// Tangent stiffness \[N/m\] of the carrying compliant contacts, summed.
     pub fn mesh_stiffness(&self, y: &Kin) -> f64 {
+        if let Some(l) = self.lumped() {
+            return self.lumped_mesh_stiffness(l);
+        }
         let Some(law) = self.compliance() else {
             return 0.0;
         };
@@ -107,6 +113,9 @@ impl GearMesh {
 
     /// Elastic energy of the carrying pairs.
     pub fn contact_energy(&self, y: &Kin) -> Result<f64, LawOutOfRange> {
+        if let Some(l) = self.lumped() {
+            return Ok(self.lumped_energy(l, y));
+        }
         let mut e = 0.0;
         let Some(law) = self.compliance() else {
             return Ok(e);
@@ -146,6 +155,9 @@ impl GearMesh {
     /// The penetration of one pair under the force `force` \[N\] along the line of action, and
     /// the pairs' stiffness there: the scales of a mesh's error tolerances (1e-12 m floor).
     pub fn static_scale(&self, force: f64) -> (f64, f64) {
+        if let Some(l) = self.lumped() {
+            return ((force / l.k).max(1e-12), l.k);
+        }
         let g = &self.geo;
         let law = self.compliance();
         let delta = match law {

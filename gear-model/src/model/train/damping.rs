@@ -35,10 +35,18 @@ pub fn chi_for_ratio(train: &Train, y: &State, m: usize, zeta: f64) -> Result<f6
     if !(f0 > 0.0) {
         return Err(unloaded());
     }
-    let ContactModel::Compliant(law) = &mesh.law else {
-        return Err(ModelError::new(format!(
-            "{name}: damping_ratio needs a compliant contact law"
-        )));
+    let law = match &mesh.law {
+        ContactModel::Compliant(law) => law,
+        ContactModel::Lumped(_) => {
+            return Err(ModelError::new(format!(
+                "{name}: damping_ratio sets Hunt-Crossley's chi, which the lumped mesh (contact_model = 4) does not use: give c_lumped instead"
+            )))
+        }
+        ContactModel::Rigid { .. } => {
+            return Err(ModelError::new(format!(
+                "{name}: damping_ratio needs a compliant contact law"
+            )))
+        }
     };
     let g = &mesh.geo;
     let relief = |s: f64| mesh.dev.as_ref().map_or(0.0, |d| d.tip_relief_at(s));

@@ -211,7 +211,7 @@ impl Train {
         for (m, mp) in spec.meshes.iter().enumerate() {
             if mp.pair.law == MeshLaw::Rigid {
                 return Err(ModelError::new(format!(
-                    "parameter mesh[{}].contact_model = 2: rigid contact is not available in a gear train (its impacts and locks are the two-wheel rig's, rig-and-modes.md §2); use contact_model 1 or 3",
+                    "parameter mesh[{}].contact_model = 2: rigid contact is not available in a gear train (its impacts and locks are the two-wheel rig's, rig-and-modes.md §2); use contact_model 1, 3 or 4",
                     m + 1
                 )));
             }
@@ -667,8 +667,10 @@ impl Train {
         for (m, mesh) in self.meshes.iter().enumerate() {
             let l = &self.cfg.links[m];
             let speed = mesh.geo.r_ab * (b.w[l.a] - l.rel_a * b.w[l.carrier]).abs();
+            // A quarter pitch as the single mesh's compliant law, a pitch for the lumped mesh.
+            let pitches = if mesh.lumped().is_some() { 1.0 } else { 0.25 };
             if speed > 0.0 {
-                h = h.min(0.25 * mesh.geo.p_b / speed);
+                h = h.min(pitches * mesh.geo.p_b / speed);
             }
         }
         if let Some(reach) = stability {

@@ -1,0 +1,82 @@
+//! The lumped mesh (`contact_model = 4`, lateral.md §4): one linear spring-damper along each
+//! flank's line of action. The teeth are not tracked for the force; the objects still follow
+//! the pairs, gated at their rigid positions, to count them for the square wave and to share
+//! the flank's force among them in the readout.
+
+use super::forces::{MeshLoad, SlotForces};
+use super::{GearMesh, Kin};
+use crate::model::contact::{slot_flank, Flank, SLOTS};
+use crate::model::pair::Lumped;
+use crate::model::rig;
+
+const FLANKS: [Flank; 2] = [Flank::Forward, Flank::Backward];
+
+impl GearMesh {
+    /// The pairs of flank f on the contact segment.
+    fn gated_on(&self, f: Flank) -> usize {
+        (0..SLOTS)
+            .filter(|&k| slot_flank(k) == f && self.gated(k))
+            .count()
+    }
+
+    /// Flank f's stiffness: k, or with the square wave k n / eps, whose mean over a mesh
+    /// cycle is k.
+    pub(crate) fn lumped_stiffness(&self, l: &Lumped, f: Flank) -> f64 {
+        if l.varies {
+            l.k * self.gated_on(f) as f64 / self.geo.eps
+        } else {
+            l.k
+        }
+    }
+
+    /// The flanks in contact (delta > 0, a mode the events keep).
+    fn lumped_flanks(&self) -> impl Iterator<Item = Flank> + '_ {
+        FLANKS
+            .into_iter()
+            .filter(|&f| self.flank_present(f) && self.flank_on(f))
+    }
+
+    /// The load of the flanks in contact: F = k delta + c d(delta)/dt along each one's line of
+    /// action, moment arms rAb and rBb, no friction. `pairs` receives each gated pair's share.
+    pub(crate) fn lumped_load(
+        &self,
+        l: &Lumped,
+        y: &Kin,
+        mut pairs: Option<&mut SlotForces>,
+    ) -> MeshLoad {
+        let g = &self.geo;
+        let mut m = MeshLoad::default();
+        for f in self.lumped_flanks() {
+            let (delta, ddelta) = self.flank_delta(f, y);
+            let k = self.lumped_stiffness(l, f);
+            let force = k * delta + l.c * ddelta;
+            m.tq_a -= f.dir() * force * g.r_ab;
+            m.tq_b += f.dir() * force * g.r_bb;
+            m.p_loss += l.c * ddelta * ddelta;
+            if self.slider {
+                m.f_bx += rig::force_on_b(f, force, 0.0, self.sin_a, self.cos_a).0;
+            }
+            if let Some(p) = pairs.as_deref_mut() {
+                let n = self.gated_on(f) as f64;
+                for k_slot in (0..SLOTS).filter(|&s| slot_flank(s) == f && self.gated(s)) {
+                    p[k_slot] = (force / n, 0.0, k * delta / n);
+                }
+            }
+        }
+        m
+    }
+
+    /// The springs' energy k delta^2 / 2 over the flanks in contact.
+    pub(crate) fn lumped_energy(&self, l: &Lumped, y: &Kin) -> f64 {
+        self.lumped_flanks()
+            .map(|f| 0.5 * self.lumped_stiffness(l, f) * self.flank_delta(f, y).0.powi(2))
+            .sum()
+    }
+
+    /// The stiffness of the flanks in contact (the `k_mesh` output).
+    pub(crate) fn lumped_mesh_stiffness(&self, l: &Lumped) -> f64 {
+        self.lumped_flanks()
+            .map(|f| self.lumped_stiffness(l, f))
+            .sum()
+    }
+}
