@@ -124,7 +124,8 @@ class Run:
         self.sv = simple_set(zs, zp, zr, angles, pin_t)
         self.tr = T.GearTrain(self.sv)          # the reference's geometry (static penetrations)
         names = ["E_kin", "E_gate", "W_loss", "energy_residual", "housing.tau"]
-        names += [f"body[{i}].{v}" for i in range(1, N + 3) for v in ("theta", "w")]
+        names += [f"body[{i}].{v}" for i in range(1, N + 3) for v in ("theta", "w", "Fx", "Fy")]
+        names += ["housing.Fx", "housing.Fy"]
         names += [f"mesh[{m}].{v}" for m in range(1, 2 * N + 1)
                   for v in ("dte", "F_fwd", "F_bwd", "n_fwd", "s_f1", "s_f2", "k_mesh") + CONSTS]
         names += list(extra)
@@ -344,6 +345,36 @@ def test_housing_torque(in_phase):
     assert quad < 0.01 * want
     assert abs(mean_h - want) <= quad + integ + abs(carrier / dt) + abs(dH / dt), \
         (mean_h, want, quad, carrier / dt, dH / dt)
+
+
+def test_bearing_forces(in_phase, out_phase):
+    """lateral.md section 7, bearing forces, through the FMU's outputs body[i].Fx/Fy, housing.Fx/Fy.
+
+    (a) A rigidly held sun among equally spaced identical planets in phase (z_s/N = 7): its
+        bearing force is zero at every instant, and so are the carrier's and the housing's (the
+        ring's mesh forces and the planets' centripetal forces cancel by symmetry too).  The
+        N meshes of a kind are the same equations integrated as different coordinates: each
+        deflection is held to INTEGRATION (1000 rel_tol), so the forces cancel to 1e-6 F0.
+    (b) Out of phase (z_s/N = 20/3): the mesh harmonics with (l z_s +- 1)/N an integer drive
+        the sun laterally (Parker 2000), so its bearing force is not zero: at least 1 % of F0
+        (the phase-shifted meshes' forces differ by a good part of F0 at the switches).
+    (c) Each planet's pin holds it on its orbit against its two meshes: the tangential force
+        (the carrier's frame) carries the two meshes' tangential load, about 2 F0 cos(alpha_w)
+        pushing the carrier forward; bounded loosely by the FORCE ENVELOPE: between 0 and
+        2 F_cap."""
+    for run, in_phase_set in ((in_phase, True), (out_phase, False)):
+        force_envelope(run)
+        sun = np.hypot(run["body[1].Fx"], run["body[1].Fy"])
+        if in_phase_set:
+            tol = 1000 * REL_TOL * run.F0
+            for name in ("body[1]", "body[2]", "housing"):
+                f = np.hypot(run[f"{name}.Fx"], run[f"{name}.Fy"])
+                assert np.max(f) <= tol, (name, np.max(f), tol)
+        else:
+            assert np.max(sun) >= 0.01 * run.F0, (np.max(sun), run.F0)
+        for i in range(3, run.N + 3):
+            ft = np.abs(run[f"body[{i}].Fy"])
+            assert np.min(ft) > 0.0 and np.max(ft) <= 2 * run.cap, (i, np.min(ft), np.max(ft))
 
 
 # ------------------------------------------------------------------------------ 3. load sharing

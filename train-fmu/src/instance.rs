@@ -72,7 +72,10 @@ impl Default for Cache {
         };
         Cache {
             per_body: group(train::MAX_BODIES, &|s| match s {
-                Source::BodyTheta(i) | Source::BodyW(i) | Source::BodyDrive(i) => Some(i),
+                Source::BodyTheta(i)
+                | Source::BodyW(i)
+                | Source::BodyDrive(i)
+                | Source::BodyForce(i, _) => Some(i),
                 _ => None,
             }),
             per_shaft: group(train::MAX_SHAFTS, &|s| match s {
@@ -116,6 +119,8 @@ enum Source {
     BodyW(usize),
     /// The torque of a speed drive (0 for a torque-driven body).
     BodyDrive(usize),
+    /// The force of the body's bearing, x (0) or y (1).
+    BodyForce(usize, usize),
     ShaftTau(usize),
     ShaftTwist(usize),
     /// Mesh m's output of the single mesh's name.
@@ -137,6 +142,8 @@ fn sources() -> Vec<(Var, Source)> {
                 Some(("body", i, "theta")) => Source::BodyTheta(i - 1),
                 Some(("body", i, "w")) => Source::BodyW(i - 1),
                 Some(("body", i, "tau_drive")) => Source::BodyDrive(i - 1),
+                Some(("body", i, "Fx")) => Source::BodyForce(i - 1, 0),
+                Some(("body", i, "Fy")) => Source::BodyForce(i - 1, 1),
                 Some(("shaft", j, "tau")) => Source::ShaftTau(j - 1),
                 Some(("shaft", j, "twist")) => Source::ShaftTwist(j - 1),
                 Some(("mesh", m, name)) => Source::Mesh(
@@ -208,6 +215,7 @@ fn write_outputs(
 ) -> Result<(), String> {
     let b = train.bodies(y);
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
+    let mut readouts = Vec::with_capacity(train.meshes.len());
     for m in 0..train.meshes.len() {
         let r = train.mesh_readout_at(m, y, &b).map_err(|e| e.to_string())?;
         let run = stats
@@ -218,7 +226,11 @@ fn write_outputs(
         o.dte = train.dte(m, y);
         o.P_loss = r.p_loss;
         per_mesh.push(o);
+        readouts.push(r);
     }
+    let bearings = train
+        .bearing_forces_with(y, &b, &readouts)
+        .map_err(|e| e.to_string())?;
     let (n_bodies, n_shafts) = (train.spec().bodies.len(), train.spec().shafts.len());
     let counts = (n_bodies, n_shafts, per_mesh.len());
     if cache.written.get() != Some(counts) {
@@ -240,6 +252,7 @@ fn write_outputs(
             Source::BodyDrive(i) if i < n_bodies && train.is_speed_driven(i) => {
                 put(o, v, train.drive_torque(i, y).map_err(|e| e.to_string())?)
             }
+            Source::BodyForce(i, k) if i < n_bodies => put(o, v, bearings.body[i][k]),
             Source::ShaftTau(j) if j < n_shafts => put(o, v, train.shaft_torque(j, y)),
             Source::ShaftTwist(j) if j < n_shafts => put(o, v, train.shaft_twist(j, y)),
             Source::Mesh(m, sv) if m < per_mesh.len() => {
@@ -262,6 +275,8 @@ fn write_outputs(
         (Var::W_loss, y[train::W_LOSS]),
         (Var::E_gate, train.e_gate),
         (Var::housing_tau, housing),
+        (Var::housing_Fx, bearings.housing[0]),
+        (Var::housing_Fy, bearings.housing[1]),
     ] {
         put(o, v, x);
     }

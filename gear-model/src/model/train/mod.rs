@@ -9,6 +9,7 @@
 //! its dte from them: every dte keeps full precision however far the bodies turn. The
 //! bodies' angles and speeds follow by the inverse linear map.
 
+pub mod bearings;
 pub mod damping;
 pub mod kinematics;
 pub mod placement;
@@ -85,6 +86,10 @@ pub struct TrainConfig {
     pub psi_start: Vec<f64>,
     /// Each planet's orbit radius \[m\] (0 off a carrier).
     pub orbit_radius: Vec<f64>,
+    /// Each mesh's frame, which turns its forces into the housing's (or the carrier's) frame.
+    pub frames: Vec<placement::MeshFrame>,
+    /// Each planet's pin in its carrier's frame, pin errors included \[m\] (0 off a carrier).
+    pub pins: Vec<[f64; 2]>,
     links: Vec<MeshLink>,
     /// Each body's carrier slot (the housing's off a carrier) and sigma_i sigma_c.
     body_carrier: Vec<(usize, f64)>,
@@ -178,6 +183,8 @@ impl Default for TrainConfig {
             coords: Coordinates::default(),
             psi_start: vec![],
             orbit_radius: vec![],
+            frames: vec![],
+            pins: vec![],
             links: vec![],
             body_carrier: vec![],
             j_eff: vec![],
@@ -271,6 +278,16 @@ impl Train {
             }
         }
         let inv_j = j_eff.iter().map(|j| 1.0 / j).collect();
+        let pins = (0..n)
+            .map(|i| match spec.bodies[i].planet {
+                Some(pl) => {
+                    let (r, t) = (lay.orbit_radius[i] + pl.pin_error_r, pl.pin_error_t);
+                    let (sn, cs) = pl.orbit_angle.sin_cos();
+                    [r * cs - t * sn, r * sn + t * cs]
+                }
+                None => [0.0; 2],
+            })
+            .collect();
         let coef = spec
             .meshes
             .iter()
@@ -297,6 +314,8 @@ impl Train {
             coords,
             psi_start: start.psi,
             orbit_radius: lay.orbit_radius,
+            frames: lay.frames,
+            pins,
             links,
             body_carrier,
             j_eff,
