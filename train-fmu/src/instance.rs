@@ -18,6 +18,7 @@ use gear_model::driver::{Method, Stats};
 use gear_model::model::mesh::LawOutOfRange;
 use gear_model::model::statistics::{Statistics, Summary};
 use gear_model::model::train::statics::{static_start, StartDeflections};
+use gear_model::model::train::MAX_BODIES;
 use gear_model::model::train::{self, State, Train, N_MARGINS, N_MASTER_STATES};
 use gear_model::variables as single;
 use rig_fmu::{Rig, Run};
@@ -72,10 +73,7 @@ impl Default for Cache {
         };
         Cache {
             per_body: group(train::MAX_BODIES, &|s| match s {
-                Source::BodyTheta(i)
-                | Source::BodyW(i)
-                | Source::BodyDrive(i)
-                | Source::BodyForce(i, _) => Some(i),
+                Source::BodyTheta(i) | Source::BodyW(i) | Source::BodyDrive(i) => Some(i),
                 _ => None,
             }),
             per_shaft: group(train::MAX_SHAFTS, &|s| match s {
@@ -119,8 +117,6 @@ enum Source {
     BodyW(usize),
     /// The torque of a speed drive (0 for a torque-driven body).
     BodyDrive(usize),
-    /// The force of the body's bearing, x (0) or y (1).
-    BodyForce(usize, usize),
     ShaftTau(usize),
     ShaftTwist(usize),
     /// Mesh m's output of the single mesh's name.
@@ -142,8 +138,6 @@ fn sources() -> Vec<(Var, Source)> {
                 Some(("body", i, "theta")) => Source::BodyTheta(i - 1),
                 Some(("body", i, "w")) => Source::BodyW(i - 1),
                 Some(("body", i, "tau_drive")) => Source::BodyDrive(i - 1),
-                Some(("body", i, "Fx")) => Source::BodyForce(i - 1, 0),
-                Some(("body", i, "Fy")) => Source::BodyForce(i - 1, 1),
                 Some(("shaft", j, "tau")) => Source::ShaftTau(j - 1),
                 Some(("shaft", j, "twist")) => Source::ShaftTwist(j - 1),
                 Some(("mesh", m, name)) => Source::Mesh(
@@ -215,7 +209,7 @@ fn write_outputs(
 ) -> Result<(), String> {
     let b = train.bodies(y);
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
-    let mut readouts = Vec::with_capacity(train.meshes.len());
+
     for m in 0..train.meshes.len() {
         let r = train.mesh_readout_at(m, y, &b).map_err(|e| e.to_string())?;
         let run = stats
@@ -226,11 +220,7 @@ fn write_outputs(
         o.dte = train.dte(m, y);
         o.P_loss = r.p_loss;
         per_mesh.push(o);
-        readouts.push(r);
     }
-    let bearings = train
-        .bearing_forces_with(y, &b, &readouts)
-        .map_err(|e| e.to_string())?;
     let (n_bodies, n_shafts) = (train.spec().bodies.len(), train.spec().shafts.len());
     let counts = (n_bodies, n_shafts, per_mesh.len());
     if cache.written.get() != Some(counts) {
@@ -252,7 +242,6 @@ fn write_outputs(
             Source::BodyDrive(i) if i < n_bodies && train.is_speed_driven(i) => {
                 put(o, v, train.drive_torque(i, y).map_err(|e| e.to_string())?)
             }
-            Source::BodyForce(i, k) if i < n_bodies => put(o, v, bearings.body[i][k]),
             Source::ShaftTau(j) if j < n_shafts => put(o, v, train.shaft_torque(j, y)),
             Source::ShaftTwist(j) if j < n_shafts => put(o, v, train.shaft_twist(j, y)),
             Source::Mesh(m, sv) if m < per_mesh.len() => {
@@ -275,8 +264,6 @@ fn write_outputs(
         (Var::W_loss, y[train::W_LOSS]),
         (Var::E_gate, train.e_gate),
         (Var::housing_tau, housing),
-        (Var::housing_Fx, bearings.housing[0]),
-        (Var::housing_Fy, bearings.housing[1]),
     ] {
         put(o, v, x);
     }
@@ -356,6 +343,26 @@ impl Rig for TrainRig {
                 write_outputs(&sim.train, &y, stats, &sim.driver.stats, cache, out)
             }
         }
+    }
+
+    /// The bearings' forces (lateral.md §6): computed when a master reads one, as they need
+    /// every mesh's force as a vector and, with planets, the carriers' accelerations.
+    fn is_lazy(v: Var) -> bool {
+        is_bearing_output(v)
+    }
+
+    fn write_lazy(train: &Train, y: &State, o: &mut Outputs) -> Result<(), String> {
+        let f = train.bearing_forces(y).map_err(|e| e.to_string())?;
+        let (x0, stride, dy) = body_force_vrs();
+        for (i, fi) in f.body.iter().enumerate().take(train.spec().bodies.len()) {
+            for (k, &x) in fi.iter().enumerate() {
+                let vr = x0 + i as u32 * stride + k as u32 * dy;
+                o.set_real(Var::from_vr(vr).expect("a body's force"), x);
+            }
+        }
+        o.set_real(Var::housing_Fx, f.housing[0]);
+        o.set_real(Var::housing_Fy, f.housing[1]);
+        Ok(())
     }
 
     /// The locals (the states that are not outputs, and every state's derivative) at state y:
@@ -554,4 +561,26 @@ fn restore_train(t: &mut Train, f: &Train) -> Result<Vec<f64>, String> {
 /// The variable of a structured name (for tests and tools).
 pub fn vr_of(name: &str) -> u32 {
     var(name).info().vr
+}
+
+/// The value reference of body 1's Fx, the stride between bodies, and Fy's offset from Fx.
+fn body_force_vrs() -> (u32, u32, u32) {
+    let x0 = Var::body_1_Fx.info().vr;
+    (
+        x0,
+        Var::body_2_Fx.info().vr - x0,
+        Var::body_1_Fy.info().vr - x0,
+    )
+}
+
+/// Whether v is a bearing's force output: the housing's, or a body's x or y.
+fn is_bearing_output(v: Var) -> bool {
+    if matches!(v, Var::housing_Fx | Var::housing_Fy) {
+        return true;
+    }
+    let (x0, stride, dy) = body_force_vrs();
+    v.info()
+        .vr
+        .checked_sub(x0)
+        .is_some_and(|off| (off / stride) < MAX_BODIES as u32 && [0, dy].contains(&(off % stride)))
 }

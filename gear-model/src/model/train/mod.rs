@@ -88,6 +88,8 @@ pub struct TrainConfig {
     pub orbit_radius: Vec<f64>,
     /// Each mesh's frame, which turns its forces into the housing's (or the carrier's) frame.
     pub frames: Vec<placement::MeshFrame>,
+    /// Each mesh frame's turn from its paper frame (`bearings::frame_turn`).
+    frame_turns: Vec<((f64, f64), f64)>,
     /// Each planet's pin in its carrier's frame, pin errors included \[m\] (0 off a carrier).
     pub pins: Vec<[f64; 2]>,
     links: Vec<MeshLink>,
@@ -184,6 +186,7 @@ impl Default for TrainConfig {
             psi_start: vec![],
             orbit_radius: vec![],
             frames: vec![],
+            frame_turns: vec![],
             pins: vec![],
             links: vec![],
             body_carrier: vec![],
@@ -314,6 +317,12 @@ impl Train {
             coords,
             psi_start: start.psi,
             orbit_radius: lay.orbit_radius,
+            frame_turns: lay
+                .frames
+                .iter()
+                .zip(&lay.geo)
+                .map(|(f, g)| bearings::frame_turn(f, g.internal))
+                .collect(),
             frames: lay.frames,
             pins,
             links,
