@@ -1138,10 +1138,10 @@ fn every_error_path_logs_in_its_category() {
             running,
         ),
         case(
-            "directional derivative",
+            "directional derivative of Co-Simulation (Model Exchange provides them)",
             "fmi2GetDirectionalDerivative",
             Status::Error,
-            "providesDirectionalDerivative",
+            "instantiated for Co-Simulation",
             |f| {
                 let mut x = 0.0;
                 unsafe { fmi2GetDirectionalDerivative(f.c, &52, 1, &40, 1, &1.0, &mut x) }

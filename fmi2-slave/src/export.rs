@@ -308,14 +308,23 @@ macro_rules! export_fmi2 {
         #[no_mangle]
         pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
             c: $crate::Component,
-            _unknown: *const $crate::ValueReference,
-            _nu: usize,
-            _known: *const $crate::ValueReference,
-            _nk: usize,
-            _dv_known: *const f64,
-            _dv_unknown: *mut f64,
+            unknown: *const $crate::ValueReference,
+            nu: usize,
+            known: *const $crate::ValueReference,
+            nk: usize,
+            dv_known: *const f64,
+            dv_unknown: *mut f64,
         ) -> $crate::Status {
-            $crate::ffi::get_directional_derivative::<$slave>(c)
+            $crate::model_exchange::get_directional_derivative::<$slave>(
+                c,
+                "fmi2GetDirectionalDerivative",
+                unknown,
+                nu,
+                known,
+                nk,
+                (dv_known, nk),
+                (dv_unknown, nu),
+            )
         }
 
         $crate::export_fmi2!(@status $slave:

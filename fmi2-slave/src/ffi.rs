@@ -616,15 +616,6 @@ pub unsafe fn get_real_output_derivatives<S: Slave>(c: Component) -> Status {
     )
 }
 
-pub unsafe fn get_directional_derivative<S: Slave>(c: Component) -> Status {
-    not_supported::<S>(
-        c,
-        "fmi2GetDirectionalDerivative",
-        allowed::GET,
-        "providesDirectionalDerivative is false",
-    )
-}
-
 /// fmi2GetStatus and friends: only fmi2LastSuccessfulTime and fmi2Terminated exist here;
 /// the others answer fmi2Discard, as the standard asks for a status that is not available.
 /// Like every fmi2Discard, it is explained through the logger (logStatusDiscard); the state

@@ -21,6 +21,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod algebraic;
+pub mod directional;
 pub mod ffi;
 pub mod fmu_state;
 pub mod instance;

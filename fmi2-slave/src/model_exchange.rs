@@ -10,7 +10,7 @@
 
 use crate::ffi::{slice, slice_mut, with};
 use crate::instance::{allowed, error, CallResult, Failure, FmiState, Instance};
-use crate::{Boolean, Component, EventInfo, EventUpdate, Slave, Status};
+use crate::{Boolean, Component, EventInfo, EventUpdate, Slave, Status, ValueReference};
 
 /// `ffi::with` for a Model Exchange function: a Co-Simulation-only model, or a Co-Simulation
 /// instance, gets fmi2Error.
@@ -228,4 +228,46 @@ pub unsafe fn get_nominals_of_continuous_states<S: Slave>(
         label,
         S::me_nominals,
     )
+}
+
+/// fmi2GetDirectionalDerivative and fmi3GetDirectionalDerivative in Model Exchange, after
+/// initialization (`directional.rs`): `seed` holds one value per known, `out` one per unknown.
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn get_directional_derivative<S: Slave>(
+    c: Component,
+    func: &str,
+    unknown: *const ValueReference,
+    n_unknown: usize,
+    known: *const ValueReference,
+    n_known: usize,
+    seed: (*const f64, usize),
+    out: (*mut f64, usize),
+) -> Status {
+    if !S::DIRECTIONAL_DERIVATIVES {
+        // SAFETY: the component is checked there, as in every function.
+        return unsafe {
+            crate::ffi::not_supported::<S>(
+                c,
+                func,
+                crate::instance::allowed::ANY,
+                "providesDirectionalDerivative is false",
+            )
+        };
+    }
+    with_me::<S>(c, func, allowed::EVENT | allowed::CONT, |i| {
+        sized(seed.1, n_known, "the seed's length")?;
+        sized(out.1, n_unknown, "the sensitivity's length")?;
+        let unknowns = slice(unknown, n_unknown, "the unknowns")?;
+        let knowns = slice(known, n_known, "the knowns")?;
+        let seed = slice(seed.0, n_known, "the seed")?;
+        let out = slice_mut(out.0, n_unknown, "the result")?;
+        crate::directional::derivative(&mut i.slave, unknowns, knowns, seed, out)?;
+        if let Some(k) = out.iter().position(|v| !v.is_finite()) {
+            return Err(error(format!(
+                "the derivative of value reference {} is {}: the point is outside what the model can evaluate",
+                unknowns[k], out[k]
+            )));
+        }
+        Ok(Status::Ok)
+    })
 }

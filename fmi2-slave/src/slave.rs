@@ -230,6 +230,33 @@ pub trait Slave: Clone + 'static {
     fn me_completed_integrator_step(&mut self) -> Result<bool, Failure> {
         Err(no_model_exchange::<Self>())
     }
+
+    /// Model Exchange provides directional derivatives (`directional.rs`): from the states'
+    /// and their derivatives' value references below.
+    const DIRECTIONAL_DERIVATIVES: bool = false;
+    /// The value references of continuous state k and of its derivative.
+    fn state_vr(&self, _k: usize) -> Option<ValueReference> {
+        None
+    }
+    fn derivative_vr(&self, _k: usize) -> Option<ValueReference> {
+        None
+    }
+    /// Whether a value reference is a real input (a known besides the states).
+    fn is_real_input(&self, _vr: ValueReference) -> bool {
+        false
+    }
+    /// How far each state may move for a central difference at the current point: within
+    /// the smooth right-hand side and far above the rounding of the model's arithmetic.
+    /// By default the larger of |x| and its nominal.
+    fn me_difference_scales(&mut self, s: &mut [f64]) -> Result<(), Failure> {
+        self.me_nominals(s)?;
+        let mut x = vec![0.0; s.len()];
+        self.me_states(&mut x)?;
+        for (sk, xk) in s.iter_mut().zip(x) {
+            *sk = sk.abs().max(xk.abs());
+        }
+        Ok(())
+    }
 }
 
 /// What fmi2NewDiscreteStates reports.

@@ -330,6 +330,30 @@ macro_rules! export_fmi3 {
         }
 
         #[no_mangle]
+        pub unsafe extern "C" fn fmi3GetDirectionalDerivative(
+            c: $crate::Fmi3Instance,
+            unknowns: *const $crate::Fmi3ValueReference,
+            n_unknowns: usize,
+            knowns: *const $crate::Fmi3ValueReference,
+            n_knowns: usize,
+            seed: *const f64,
+            n_seed: usize,
+            sensitivity: *mut f64,
+            n_sensitivity: usize,
+        ) -> $crate::Fmi3Status {
+            ::fmi2_slave::model_exchange::get_directional_derivative::<$slave>(
+                c,
+                "fmi3GetDirectionalDerivative",
+                unknowns,
+                n_unknowns,
+                knowns,
+                n_knowns,
+                (seed, n_seed),
+                (sensitivity, n_sensitivity),
+            )
+        }
+
+        #[no_mangle]
         pub unsafe extern "C" fn fmi3SetTime(c: $crate::Fmi3Instance, time: f64) -> $crate::Fmi3Status {
             ::fmi2_slave::model_exchange::set_time::<$slave>(c, time)
         }
@@ -397,16 +421,6 @@ macro_rules! export_fmi3 {
                 _kinds: *mut $crate::Fmi3DependencyKind,
                 _n: usize
             ) => "dependencies are not provided beyond modelDescription.xml";
-            fmi3GetDirectionalDerivative(
-                _unknowns: *const $crate::Fmi3ValueReference,
-                _n_unknowns: usize,
-                _knowns: *const $crate::Fmi3ValueReference,
-                _n_knowns: usize,
-                _seed: *const f64,
-                _n_seed: usize,
-                _sensitivity: *mut f64,
-                _n_sensitivity: usize
-            ) => "providesDirectionalDerivatives is false";
             fmi3GetAdjointDerivative(
                 _unknowns: *const $crate::Fmi3ValueReference,
                 _n_unknowns: usize,

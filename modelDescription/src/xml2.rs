@@ -30,7 +30,8 @@ pub fn model_description_xml(t: &Table, version: &str) -> String {
                 ("canNotUseMemoryManagementFunctions", "true".into()),
                 ("canGetAndSetFMUstate", "true".into()),
                 ("canSerializeFMUstate", "true".into()),
-                ("providesDirectionalDerivative", "false".into()),
+                // By central differences (fmi2-slave/src/directional.rs).
+                ("providesDirectionalDerivative", "true".into()),
             ],
         )));
     }

@@ -37,6 +37,8 @@ pub fn model_description_xml3(t: &Table, version: &str) -> String {
     if me.is_some() {
         let mut attrs = common.to_vec();
         attrs.push(("needsCompletedIntegratorStep", "true".into()));
+        // By central differences (fmi2-slave/src/directional.rs).
+        attrs.push(("providesDirectionalDerivatives", "true".into()));
         put(Event::Empty(elem("ModelExchange", &attrs)));
     }
     let mut attrs = common.to_vec();

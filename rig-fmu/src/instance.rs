@@ -555,6 +555,23 @@ impl<R: Rig> Slave for RigInstance<R> {
             .into()
     }
 
+    const DIRECTIONAL_DERIVATIVES: bool = true;
+
+    fn state_vr(&self, k: usize) -> Option<ValueReference> {
+        R::STATES.get(k).map(|s| <R::Table as Table>::info(s.0).vr)
+    }
+
+    fn derivative_vr(&self, k: usize) -> Option<ValueReference> {
+        R::STATES.get(k).map(|s| <R::Table as Table>::info(s.1).vr)
+    }
+
+    fn is_real_input(&self, vr: ValueReference) -> bool {
+        <R::Table as Table>::from_vr(vr).is_some_and(|v| {
+            let i = <R::Table as Table>::info(v);
+            i.role == Role::Input && i.kind == Kind::Real
+        })
+    }
+
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {
         R::check_model_exchange(&self.snap)?;
         let sim = self.build()?;
@@ -611,6 +628,11 @@ impl<R: Rig> Slave for RigInstance<R> {
     fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
         let (m, _) = self.point()?;
         m.nominals(n);
+        Ok(())
+    }
+
+    fn me_difference_scales(&mut self, s: &mut [f64]) -> Result<(), Failure> {
+        self.exchange()?.difference_scales(s);
         Ok(())
     }
 

@@ -26,6 +26,7 @@ pub enum Role {
 #[derive(Clone, Copy, Debug)]
 pub struct Info {
     pub name: &'static str,
+    pub vr: u32,
     pub kind: Kind,
     pub role: Role,
     /// A fixed parameter: it cannot be set after initialization.
@@ -141,6 +142,7 @@ macro_rules! rig_table {
                     let i = v.info();
                     $crate::table::Info {
                         name: i.name,
+                        vr: i.vr,
                         kind: match i.ty {
                             VarType::Real => Kind::Real,
                             VarType::Integer => Kind::Integer,

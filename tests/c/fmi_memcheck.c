@@ -102,6 +102,7 @@ struct api {
     fmi2GetEventIndicatorsTYPE *GetEventIndicators;
     fmi2GetContinuousStatesTYPE *GetContinuousStates;
     fmi2GetNominalsOfContinuousStatesTYPE *GetNominalsOfContinuousStates;
+    fmi2GetDirectionalDerivativeTYPE *GetDirectionalDerivative;
 };
 
 static void *sym(void *lib, const char *name) {
@@ -214,6 +215,17 @@ static void model_exchange(const struct api *f, const fmi2CallbackFunctions *cb,
     CHECK(f->GetEventIndicators(c, z0, NZ) == fmi2OK, "indicators");
     for (k = 0; k < 2000; k++) {
         CHECK(f->GetDerivatives(c, dx, NX) == fmi2OK, "derivatives at t = %g", t);
+        if (k % 500 == 0) {
+            /* d(der(dte_rate))/d(dte) by the FMU's central differences: finite, and the
+             * point left as it was. */
+            const fmi2ValueReference unknown = 126, known = 54;
+            const fmi2Real seed = 1.0;
+            fmi2Real slope = 0.0, again[NX];
+            CHECK(f->GetDirectionalDerivative(c, &unknown, 1, &known, 1, &seed, &slope) == fmi2OK
+                  && slope <= 0.0, "directional derivative at t = %g", t);
+            CHECK(f->GetDerivatives(c, again, NX) == fmi2OK
+                  && memcmp(again, dx, sizeof again) == 0, "the point restored at t = %g", t);
+        }
         for (i = 0; i < NX; i++) x[i] += h * dx[i];
         t += h;
         CHECK(f->SetTime(c, t) == fmi2OK, "time");
@@ -376,6 +388,7 @@ int main(int argc, char **argv) {
     LOAD(EnterEventMode); LOAD(NewDiscreteStates); LOAD(EnterContinuousTimeMode);
     LOAD(CompletedIntegratorStep); LOAD(SetTime); LOAD(SetContinuousStates); LOAD(GetDerivatives);
     LOAD(GetEventIndicators); LOAD(GetContinuousStates); LOAD(GetNominalsOfContinuousStates);
+    LOAD(GetDirectionalDerivative);
 
     CHECK(strcmp(f.GetVersion(), "2.0") == 0, "version");
     CHECK(strcmp(f.GetTypesPlatform(), "default") == 0, "types platform");

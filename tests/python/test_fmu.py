@@ -796,8 +796,12 @@ def _bad_rig_parameters():
     cases.append(("slider_damping<0", {"slider_damping": -1.0}, ["slider_damping"], -1.0))
     cases.append(("slider_damping<0 with a slider", {"slider_stiffness": SLIDER, "slider_damping": -5.0},
                   ["slider_damping"], -5.0))
-    for v in (0, -1, 4):
+    for v in (0, -1, 5):
         cases.append((f"contact_model={v}", {"contact_model": v}, ["contact_model"], v))
+    # The lumped mesh (contact_model 4, lateral.md section 4): its stiffness and damping.
+    for k in (0.0, -1e8):
+        cases.append((f"k_lumped={k}", {"contact_model": 4, "k_lumped": k}, ["k_lumped"], k))
+    cases.append(("c_lumped<0", {"contact_model": 4, "c_lumped": -1.0}, ["c_lumped"], -1.0))
     # Contact model 3 (issue 9): standard geometry only, and its own parameters.
     cases.append(("contact_model=3 with the paper geometry", {"contact_model": 3},
                   ["contact_model", "geometry"], 3))

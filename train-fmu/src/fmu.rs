@@ -89,6 +89,20 @@ struct Own {
 }
 
 impl TrainFmu {
+    /// The value reference, in this FMU's numbering, of state k's variable or its derivative
+    /// (`pick` chooses from SpurGearTrain's pair): a gearbox's own variable of the same train
+    /// variable.
+    fn own_vr(&self, k: usize, pick: fn((Var, Var)) -> Var) -> Option<ValueReference> {
+        match self.gearbox.as_deref() {
+            None => STATES.get(k).map(|&s| pick(s).info().vr),
+            Some(o) => {
+                let train = pick(*STATES.get(*o.fmu.states.get(k)?)?);
+                let i = o.fmu.vars.iter().position(|v| v.train == train)?;
+                Some(i as ValueReference + 1)
+            }
+        }
+    }
+
     /// An instance of a gearbox's FMU.
     pub fn gearbox(fmu: Arc<GearboxFmu>) -> TrainFmu {
         let mut train = SpurGearTrain::fresh();
@@ -605,6 +619,25 @@ impl Slave for TrainFmu {
         self.train.state_name(k)
     }
 
+    const DIRECTIONAL_DERIVATIVES: bool = true;
+
+    fn state_vr(&self, k: usize) -> Option<ValueReference> {
+        self.own_vr(k, |(state, _)| state)
+    }
+
+    fn derivative_vr(&self, k: usize) -> Option<ValueReference> {
+        self.own_vr(k, |(_, der)| der)
+    }
+
+    fn is_real_input(&self, vr: ValueReference) -> bool {
+        match self.gearbox.as_deref() {
+            None => self.train.is_real_input(vr),
+            Some(o) => o.fmu.vars.get(vr as usize - 1).is_some_and(|v| {
+                v.causality == Causality::Input && v.train.info().ty == VarType::Real
+            }),
+        }
+    }
+
     fn me_exit_initialization(&mut self) -> Result<(), Failure> {
         self.on_train(|t| t.me_exit_initialization())
     }
@@ -642,6 +675,10 @@ impl Slave for TrainFmu {
 
     fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
         self.states_of(n, SpurGearTrain::me_nominals)
+    }
+
+    fn me_difference_scales(&mut self, s: &mut [f64]) -> Result<(), Failure> {
+        self.states_of(s, SpurGearTrain::me_difference_scales)
     }
 
     fn me_enter_event_mode(&mut self) -> Result<(), Failure> {

@@ -30,6 +30,17 @@ pub trait ExchangeRig: System<Error = LawOutOfRange, Report = EventReport> {
     fn set_from_master(&self, x: &[f64], y: &mut Self::State);
     /// Scales of the master's states.
     fn nominals(&self, n: &mut [f64]);
+    /// How far each master state may move for a central difference (directional
+    /// derivatives): within the smooth right-hand side, and large against the rounding of the
+    /// rig's own arithmetic in what it changes. By default the larger of |x| and its nominal.
+    fn difference_scales(&self, y: &Self::State, s: &mut [f64]) {
+        self.nominals(s);
+        let mut x = vec![0.0; s.len()];
+        self.to_master(y, &mut x);
+        for (sj, xj) in s.iter_mut().zip(x) {
+            *sj = sj.max(xj.abs());
+        }
+    }
     fn current_loads(&self) -> &Self::Loads;
     /// New loads; the rig may move the state (a rigid lock released).
     fn apply_loads(&mut self, loads: Self::Loads, y: &mut Self::State);
@@ -58,6 +69,21 @@ impl ExchangeRig for PaperRig {
         let s = self.abs_tol(1.0);
         let scale = [s[0], s[1], s[2], s[3], 1.0, 1.0, s[4], s[5]];
         n.copy_from_slice(&scale[..n.len()]);
+    }
+    /// A's angle moves the contacts along the line of action: a radian. The error's rate
+    /// also moves B's speed, rBb w_B = rAb w_A - d(dte)/dt, whose rounding (eps rAb |w_A|)
+    /// must stay far below the step: a tenth of the pitch-line speed at least.
+    fn difference_scales(&self, y: &State, s: &mut [f64]) {
+        let mut x = [0.0; NY - 1];
+        self.to_master(y, &mut x);
+        self.nominals(s);
+        for (j, (sj, xj)) in s.iter_mut().zip(x).enumerate() {
+            *sj = match ME_STATE[j] {
+                THETA_A => 1.0,
+                DDTE => sj.max(xj.abs()).max(0.1 * self.geo.r_ab * y[W_A].abs()),
+                _ => sj.max(xj.abs()),
+            };
+        }
     }
     fn current_loads(&self) -> &Loads {
         &self.loads
@@ -155,6 +181,11 @@ impl<R: ExchangeRig> Exchange<R> {
     /// Scales of the master's states (`ExchangeRig::nominals`).
     pub fn nominals(&self, n: &mut [f64]) {
         self.rig.nominals(n)
+    }
+
+    /// Scales for central differences at the current point (`ExchangeRig::difference_scales`).
+    pub fn difference_scales(&self, s: &mut [f64]) {
+        self.rig.difference_scales(&self.y, s)
     }
 
     /// New inputs or tunable parameters: the right-hand side reads them from now on. A rigid

@@ -234,6 +234,37 @@ impl ExchangeRig for Train {
                 .unwrap_or(1.0);
         }
     }
+    /// A body's angle moves its gears' contacts: a radian. An element's rate enters the
+    /// bodies' speeds mixed with the others (`Train::bodies`), whose rounding (eps times the
+    /// pitch-line speeds) must stay far below the step: a tenth of the fastest pitch-line
+    /// speed at least.
+    fn difference_scales(&self, y: &State, s: &mut [f64]) {
+        self.nominals(s);
+        let b = self.bodies(y);
+        let speed = self
+            .meshes
+            .iter()
+            .zip(&self.spec().meshes)
+            .map(|(mesh, mp)| {
+                let w = if mp.a == crate::model::train::HOUSING {
+                    0.0
+                } else {
+                    b.w[mp.a]
+                };
+                mesh.geo.r_ab * w.abs()
+            })
+            .fold(0.0, f64::max);
+        for (j, sj) in s.iter_mut().enumerate() {
+            let Some(i) = self.master_index(j) else {
+                continue;
+            };
+            *sj = match i.checked_sub(2).map(|k| (k / 2, k % 2)) {
+                Some((k, 0)) if self.cfg.coords.coords[k].is_body() => 1.0,
+                Some((_, 1)) => sj.max(y[i].abs()).max(0.1 * speed),
+                _ => sj.max(y[i].abs()),
+            };
+        }
+    }
     fn current_loads(&self) -> &TrainLoads {
         &self.loads
     }

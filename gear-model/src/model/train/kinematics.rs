@@ -126,6 +126,12 @@ pub enum Coord {
     Edge(Edge),
 }
 
+impl Coord {
+    pub fn is_body(&self) -> bool {
+        matches!(self, Coord::Body(_))
+    }
+}
+
 /// Where an element's coordinate comes from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Source {
