@@ -31,6 +31,8 @@ from scipy.optimize import brentq
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tools"))
 
+import layout_drawing as D  # noqa: E402
+import run_plots as RP  # noqa: E402
 import train_layout as T  # noqa: E402
 
 REL = 1e-12
@@ -262,7 +264,7 @@ def test_single_body_and_elements_beyond_the_counts():
 
 def test_draw_layout_and_cli(tmp_path):
     out = tmp_path / "layout.png"
-    T.draw_layout(idler(60 * DEG), out)
+    D.draw_layout(idler(60 * DEG), out)
     assert out.stat().st_size > 20_000
     scene = tmp_path / "idler.toml"
     scene.write_text('description = "idler"\n[start_values]\nn_bodies = 3\nn_shafts = 0\n'
@@ -299,21 +301,21 @@ def test_plot_run_on_a_synthetic_csv(tmp_path):
     write_fmpy_csv(path, names, rows)
     out = tmp_path / "run.png"
     # mesh 3 reads 0 throughout (beyond n_meshes): not shown
-    assert T.plot_run(path, out) == [1, 2]
+    assert RP.plot_run(path, out) == [1, 2]
     assert out.stat().st_size > 20_000
     assert T.main(["run", str(path), "-o", str(tmp_path / "cli-run.png")]) == 0
-    cols = T.read_run_csv(path)
+    cols = RP.read_run_csv(path)
     assert cols["mesh[1].F_fwd"][0] == 500.0 and len(cols["time"]) == 201
 
     bad = tmp_path / "bad.csv"
     with open(bad, "w", newline="") as f:
         csv.writer(f).writerows([["t", "x"], [0, 1]])
     with pytest.raises(ValueError, match="first column must be 'time'"):
-        T.plot_run(bad, tmp_path / "bad.png")
+        RP.plot_run(bad, tmp_path / "bad.png")
     with open(bad, "w", newline="") as f:
         csv.writer(f).writerows([["time", "y"], [0, 1]])
     with pytest.raises(ValueError, match="no non-zero"):
-        T.plot_run(bad, tmp_path / "bad.png")
+        RP.plot_run(bad, tmp_path / "bad.png")
 
 
 # ------------------------------------------------------------------------------ planetary sets
@@ -361,7 +363,7 @@ def test_planetary_simple_planets_on_their_orbit(tmp_path):
         assert mm["B"] == 0 and mm["internal"] and mm["carrier"] == 2
         assert mm["O_B"] == (0.0, 0.0)
         assert close(math.dist(mm["O_A"], mm["O_B"]), R, rel=1e-11)
-    lay2 = T.draw_layout(simple(), tmp_path / "planetary-layout.png")
+    lay2 = D.draw_layout(simple(), tmp_path / "planetary-layout.png")
     ring = [g for g in lay2["housing_drawn"] if g["internal"]]
     assert len(ring) == 1 and ring[0]["names"] == ["mesh[4].B", "mesh[5].B", "mesh[6].B"]
 
@@ -510,7 +512,7 @@ def test_axes_that_do_not_close_are_refused():
 def test_torsional_mount_and_planetary_drawings(tmp_path):
     sv = T.load_scene(SCENES / "planetary-mounted.toml")
     assert sv["shaft[1].b"] == 0                                 # the ring on a torque arm
-    lay = T.draw_layout(sv, tmp_path / "mounted.png")
+    lay = D.draw_layout(sv, tmp_path / "mounted.png")
     assert lay["bodies"][3]["center"] == (0.0, 0.0) and lay["placed"][0] == (3, "shaft[1]")
     assert (tmp_path / "mounted.png").stat().st_size > 50_000
     assert T.main(["layout", "--scene", str(SCENES / "planetary-two-stage.toml"),
@@ -519,7 +521,7 @@ def test_torsional_mount_and_planetary_drawings(tmp_path):
 
 def test_load_shares_and_planetary_run_plot(tmp_path):
     lay = T.layout(simple())
-    assert T.planet_mesh_groups(lay) == {(2, 1, "sun"): [1, 2, 3], (2, 0, "ring"): [4, 5, 6]}
+    assert RP.planet_mesh_groups(lay) == {(2, 1, "sun"): [1, 2, 3], (2, 0, "ring"): [4, 5, 6]}
     names = ["time"] + [f"mesh[{m}].{f}" for m in range(1, 7) for f in ("dte", "F_fwd", "F_bwd")]
     names += ["body[1].w", "body[2].w", "housing.tau"]
     rows = []
@@ -532,13 +534,13 @@ def test_load_shares_and_planetary_run_plot(tmp_path):
         rows.append(r + [100.0, 26.9, 135.7])
     path = tmp_path / "run.csv"
     write_fmpy_csv(path, names, rows)
-    flank, sh = T.load_shares(T.read_run_csv(path), [1, 2, 3])
+    flank, sh = RP.load_shares(RP.read_run_csv(path), [1, 2, 3])
     assert flank == "F_fwd"
     for k, row in enumerate(rows):
         mean = (row[2] + row[5] + row[8]) / 3
         assert close(sh[1][k], row[2] / mean, rel=1e-12)
         assert close(sh[1][k] + sh[2][k] + sh[3][k], 3.0, rel=1e-12)
-    assert T.plot_run(path, tmp_path / "run.png", simple()) == [1, 2, 3, 4, 5, 6]
+    assert RP.plot_run(path, tmp_path / "run.png", simple()) == [1, 2, 3, 4, 5, 6]
     assert (tmp_path / "run.png").stat().st_size > 50_000
     assert T.main(["run", str(path), "--scene", str(SCENES / "planetary-simple.toml"),
                    "-o", str(tmp_path / "cli-run.png")]) == 0
