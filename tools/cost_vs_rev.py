@@ -49,7 +49,7 @@ def train_cpu(binary: Path, scene: dict) -> float | None:
     """The median thread CPU time of 3 runs of a train scene (tools/work_precision.py's way of
     handing it to run_train_scene: the scene's start values, its input table)."""
     sys.path.insert(0, str(ROOT / "tools"))
-    from work_precision import train_start_args  # noqa: E402
+    from work_precision_train import train_start_args  # noqa: E402
     cmd = [str(binary), "--stop-time", repr(float(scene["stop_time"])), "--output-interval",
            repr(float(scene["output_interval"])), "--reps", "3"] + train_start_args(scene)
     if "input_file" in scene:
