@@ -573,3 +573,181 @@ def test_lumped_validation_errors_name_the_mesh(sv, exc, text):
     with pytest.raises(exc) as info:
         T.GearTrain(sv)
     assert text in str(info.value), str(info.value)
+
+
+# ------------------------------------------------------------------------------ 8. bearing forces
+# lateral.md sections 6-7 for a torsional train (every centre held): body[i].Fx, body[i].Fy,
+# housing.Fx, housing.Fy (train_ref's module docstring, BEARING FORCES).
+
+def bearing_columns(res, i):
+    return res.column(f"body[{i}].Fx"), res.column(f"body[{i}].Fy")
+
+
+@pytest.mark.parametrize("pinion", [1, 2], ids=["pinion-body1-sigma-1", "pinion-body2-sigma+1-mirrored"])
+def test_bearing_force_of_a_single_pair_at_static_load(pinion):
+    """lateral.md section 7: a single external pair at static load: the pinion's bearing force is
+    tau_A / rAb along n_f, the direction in which the forward flank pushes wheel B.  Gear-train.md
+    section 3 places the pair: n_f = Rot(beta) (sin aw, -cos aw) when the pinion's forward sense
+    is clockwise (sigma_A = -1), and its mirror image Rot(beta) (sin aw, cos aw) when it is
+    counter-clockwise (sigma_A = +1: the pinion is body 2, reached from body 1 across the mesh).
+    The wheel's bearing takes the opposite force and the housing nothing.  At rest (the torques
+    balanced, no sliding, so no friction), started at the static load: bound 1e-7 relative as
+    test_static_load_at_rest (the equilibrium drifts only by the integration error)."""
+    tau_A, beta = 30.0, 0.7
+    wheel = 3 - pinion
+    sv = {"n_bodies": 2, "n_shafts": 0, "n_meshes": 1, "mesh[1].A": pinion, "mesh[1].B": wheel,
+          "mesh[1].center_angle": beta, f"body[{pinion}].tau": tau_A, "body[1].w_start": 0.0,
+          "body[2].c": 0.0}
+    sv.update(standard_mesh(1, 17, 41))
+    g = T.GearTrain(sv).meshes[0].g
+    sv[f"body[{wheel}].tau"] = -tau_A * g.rBb / g.rAb
+    tr = T.GearTrain(T.quasi_static_start(sv))
+    assert tr.sigma[pinion - 1] == (-1 if pinion == 1 else 1)
+    res = tr.simulate(0.002, 2e-4, rtol=RTOL, bearing_forces=True)
+    F = tau_A / g.rAb
+    s = -tr.sigma[pinion - 1]
+    n_f = (math.cos(beta) * math.sin(g.alpha_w) + math.sin(beta) * s * math.cos(g.alpha_w),
+           math.sin(beta) * math.sin(g.alpha_w) - math.cos(beta) * s * math.cos(g.alpha_w))
+    for k, (fx, fy) in enumerate(zip(*bearing_columns(res, pinion))):
+        assert math.hypot(fx - F * n_f[0], fy - F * n_f[1]) <= 1e-7 * F, (k, fx, fy, F, n_f)
+    for a, b in zip(bearing_columns(res, wheel), bearing_columns(res, pinion)):
+        np.testing.assert_allclose(a, -b, rtol=0, atol=1e-9 * F)
+    for h in ("housing.Fx", "housing.Fy"):
+        assert np.max(np.abs(res.column(h))) <= 1e-9 * F
+    assert np.all(res.column("mesh[1].n_fwd") >= 1)
+
+
+def friction_everywhere(sv, mu=0.05):
+    out = dict(sv)
+    for m in range(1, out["n_meshes"] + 1):
+        out[f"mesh[{m}].mu"] = mu
+    return out
+
+
+def test_held_sun_among_planets_in_phase_feels_no_force():
+    """lateral.md section 7: a rigidly held sun among N equally spaced identical planets without
+    errors, in phase (z_sun / N an integer: planetary-simple, 21/18/57, 21/3 = 7): its bearing
+    force is zero at every instant; so are the carrier's and the housing's (sum r_n = 0).  With
+    friction on every mesh (mu 0.05: the friction forces cancel by the same symmetry).
+    Bound: the three planets' trajectories differ only by rounding (orbit angles 2 pi/3 in
+    floating point, placement) and by the integration error, which is not symmetric (mesh 1
+    is a coordinate, meshes 2 and 3 close loops): at most the second-tolerance difference of a
+    dte, ~1e-13 m (accuracy_planetary.md), times a mesh's tangent stiffness (< 2e9 N/m) per
+    mesh, and the friction's response to a speed difference of the same order (mu F dv / v_reg,
+    negligible): 1e-3 N, against 800 N per sun-planet mesh.  The control: the same set out of
+    phase (planetary-pin-error's 20/22/64 without its pin error, 20/3 teeth per spacing), where
+    the mesh harmonics drive the sun: its bearing force reaches more than 10 N."""
+    horizon = 0.004
+    for name, bound, want_zero in (("planetary-simple", 1e-3, True),
+                                   ("planetary-pin-error", 10.0, False)):
+        sv = friction_everywhere(T.load_scene(name)["start_values"])
+        sv["body[3].pin_error_t"] = 0.0
+        tr = T.GearTrain(sv)
+        res = tr.simulate(horizon, 4e-5, rtol=RTOL, bearing_forces=True)
+        sun = np.hypot(*bearing_columns(res, 1))
+        load = res.column("mesh[1].F_fwd")
+        assert np.min(load) > 100.0
+        if want_zero:
+            assert np.max(sun) <= bound, np.max(sun)
+            assert np.max(np.hypot(*bearing_columns(res, 2))) <= 3 * bound
+            assert np.max(np.hypot(res.column("housing.Fx"), res.column("housing.Fy"))) <= 3 * bound
+            # while each planet's pin carries its two meshes' normal forces tangentially, times
+            # cos(alpha_w) (the same alpha_w in both: the set's design), and friction's part, at
+            # most mu (F_sun + F_ring) sin(alpha_w) < mu (F_sun + F_ring)
+            g = tr.meshes[0].g
+            Fy = res.column("body[3].Fy")
+            both = load + res.column("mesh[4].F_fwd")
+            assert abs(tr.meshes[3].g.alpha_w - g.alpha_w) < 1e-12
+            assert np.all(np.abs(Fy - both * math.cos(g.alpha_w)) <= 0.05 * both)
+        else:
+            assert np.max(sun) > bound, np.max(sun)
+
+
+def test_planet_pin_carries_the_centripetal_force():
+    """lateral.md section 7: a planet at carrier speed Omega: its pin's radial force carries the
+    centripetal m R Omega^2, inwards.  planetary-simple's loaded set with a heavy carrier
+    (J 1e3: it turns at constant Omega, |alpha| <= 2 x 185.7 N.m / 1e3 kg.m^2 with the dynamic
+    factor below 2), run twice: planets of m = 0.3 kg, and massless planets with the carrier's
+    J raised by the orbital inertia they no longer add (bit for bit the same J, so the same
+    trajectory to the last bit: the planets' mass enters the torsional equations only there).
+    Each pin then carries exactly -m R Omega^2 more radially (Omega = -w_carrier's output, R the
+    orbit radius: no pin error), and m R alpha tangentially, below the alpha bound.  Bound:
+    rounding of P = m a - (mesh forces ~1 kN): 1e-12 x 1 kN."""
+    sv = T.load_scene("planetary-simple")["start_values"]
+    heavy = dict(sv, **{"body[2].J": 1e3})
+    tr_m = T.GearTrain(heavy)
+    light = dict(heavy, **{"body[2].J": 1e3 + tr_m.J_orbit[1]})
+    for i in (3, 4, 5):
+        light[f"body[{i}].m"] = 0.0
+    tr_0 = T.GearTrain(light)
+    assert tr_0.J[1] == tr_m.J[1]
+    res_m = tr_m.simulate(0.003, 4e-5, rtol=RTOL, bearing_forces=True)
+    res_0 = tr_0.simulate(0.003, 4e-5, rtol=RTOL, bearing_forces=True)
+    assert np.array_equal(res_m.column("body[1].w"), res_0.column("body[1].w"))
+    Om = res_m.column("body[2].w")
+    m, R = 0.3, tr_m.R[2]
+    alpha_max = 2 * 185.72 / 1e3
+    assert np.ptp(Om) < 1e-4 * Om[0]
+    for i in (3, 4, 5):
+        dFx = res_m.column(f"body[{i}].Fx") - res_0.column(f"body[{i}].Fx")
+        dFy = res_m.column(f"body[{i}].Fy") - res_0.column(f"body[{i}].Fy")
+        np.testing.assert_allclose(dFx, -m * R * Om ** 2, rtol=0, atol=1e-9)
+        assert np.max(np.abs(dFy)) <= m * R * alpha_max + 1e-9
+        assert np.all(-m * R * Om ** 2 < -8.0)     # meaningful: ~8.7 N against the ~1e-9 bound
+
+
+def test_bearing_forces_balance_the_torsional_carrier_and_the_housing():
+    """The force directions against the spec's torque tables (gear-mesh-model.md section 4,
+    planetary.md section 1), in planetary-bearings (pin error, friction on every mesh, an
+    accelerating carrier), at the states of every contact event of its first 6 ms, before and
+    after each:
+      * the moment of the pins' forces on the carrier, -sum |r_n| Fy_n, is the torsional
+        model's mesh reaction on the carrier (minus the sum of the meshes' torques, absolute)
+        less the orbital inertia's sum m |r_n|^2 alpha.  For a mesh's forces acting at one
+        contact point their moments about the carrier's axis cancel (action and reaction on one
+        line), so the pin moment r_n x F is minus the meshes' torques; the spec's friction arms
+        s_A + s_B = L + delta (external; L - delta internal) differ from one point's L by
+        delta, so the identity holds to sum over carrying pairs |F_t| |delta| <= mu sum_m F_m
+        |dte_m| (bound: twice that, plus 1e-12 of the torque).  A normal force on the wrong
+        flank's line or a friction force of the wrong direction misses by about F rb or
+        2 mu F L ~ 3 N.m;
+      * the housing's force is -sum_n m_n a_n (Newton's third law over the meshes), a_n =
+        Rot(psi_c) (-Omega^2 r_n + alpha J r_n): 0.5 mN from the pin error, to rounding of the
+        kN forces it is formed from (1e-9 N)."""
+    sc = T.load_scene("planetary-bearings")
+    tr, inputs = T.scene_model(sc)
+    res = tr.simulate(0.006, sc["output_interval"], inputs, rtol=RTOL, bearing_forces=True)
+    assert len(res.events) > 20
+    c = 1                                        # the carrier, body 2
+    mu = sc["start_values"]["mesh[1].mu"]
+    names = tr.output_names()
+    planets = [i for i in range(tr.nb) if tr.is_planet(i)]
+    n_checked = 0
+    for t, y, cb, ca in res.events:
+        tau = np.array([b.tau for b in tr.bodies])
+        for cfg in (cb, ca):
+            row = dict(zip(names, tr.outputs(t, y, cfg, 0.0, bearing=True, tau=tau)))
+            Q, _pl, w = tr.forces(t, y, cfg, tau)
+            Qd, _P = tr._drag(w)
+            M_c = tr.sigma[c] * (Q[c] - Qd[c] - tau[c])          # meshes' reaction, absolute
+            alpha = tr.sigma[c] * tr.accelerations(t, y, cfg, tau)[c]
+            Om = tr.sigma[c] * w[c]
+            psi_c = tr.sigma[c] * (tr.T @ y[:tr.n])[c]
+            pins, inertia, ma = 0.0, 0.0, np.zeros(2)
+            for i in planets:
+                r = np.array(tr.planet_position(i))
+                rn = math.hypot(*r)
+                pins -= rn * row[f"body[{i + 1}].Fy"]
+                m = tr.bodies[i].mass
+                inertia += m * rn * rn * alpha
+                ma += m * (-Om * Om * r + alpha * np.array([-r[1], r[0]]))
+            slack = sum(mu * (row[f"mesh[{k}].F_fwd"] + row[f"mesh[{k}].F_bwd"])
+                        * abs(row[f"mesh[{k}].dte"]) for k in range(1, tr.nm + 1))
+            assert abs(pins - (M_c - inertia)) <= 2 * slack + 1e-12 * abs(M_c), (t, pins, M_c, inertia, slack)
+            assert 1e-4 < 2 * slack < 0.1           # the bound is far below a wrong direction's error
+            cs, sn = math.cos(psi_c), math.sin(psi_c)
+            want = -np.array([cs * ma[0] - sn * ma[1], sn * ma[0] + cs * ma[1]])
+            got = np.array([row["housing.Fx"], row["housing.Fy"]])
+            assert np.max(np.abs(got - want)) <= 1e-9, (t, got, want)
+            n_checked += 1
+    assert n_checked > 40

@@ -68,7 +68,7 @@ _UNITS = {
     "F_f1": "N", "F_f2": "N", "F_b1": "N", "F_b2": "N", "P_loss": "W", "k_mesh": "N/m",
     "tau_mesh_A": "N.m", "tau_mesh_B": "N.m", "mean_w": "rad/s", "rms_dte": "m",
     "max_dte": "m", "min_dte": "m", "switching_time": "s", "E_kin": "J", "E_el": "J",
-    "E_gate": "J", "W_ext": "J", "W_loss": "J", "energy_residual": "J",
+    "E_gate": "J", "W_ext": "J", "W_loss": "J", "energy_residual": "J", "Fx": "N", "Fy": "N",
 }
 
 

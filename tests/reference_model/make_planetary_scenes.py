@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Writes the planetary scenes scenes/train/planetary-*.toml and power-split.toml: gear data
-chosen to pass every refusal of planetary.md sections 1-4 (checked here), start values from
-train_ref.quasi_static_start (a running start at the static loads), and the scenes' texts.
+"""Writes the planetary scenes scenes/train/planetary-*.toml, power-split.toml and
+lumped-planetary.toml: gear data chosen to pass every refusal of planetary.md sections 1-4
+(checked here), start values from train_ref.quasi_static_start (a running start at the static
+loads), and the scenes' texts.
 
-    .venv/bin/python tests/reference_model/make_planetary_scenes.py            # all five
+    .venv/bin/python tests/reference_model/make_planetary_scenes.py            # all of them
     .venv/bin/python tests/reference_model/make_planetary_scenes.py --check    # design checks only
 
 Gear data (module 2 mm, 20 deg, addendum 1, face width 20 mm, backlash 50 um, every scene):
@@ -329,8 +330,65 @@ Running start at the static loads the compliant set shares (train_ref.quasi_stat
                    "mesh[1].F_f1", "mesh[1].k_mesh", "mesh[1].P_loss", "housing.tau"])
 
 
+def scene_bearings():
+    """planetary-pin-error's set, made to load every term of the bearing forces (lateral.md
+    section 6): friction on every mesh, a carrier drag that absorbs only half the set's torque
+    at the start (the set accelerates), planets with mass; twice pin-error's sun torque, so that
+    planets 2 and 3 stay in contact throughout (at 50 N.m, with part of the torque spent on
+    accelerating the sun, the 2 um error unloads them once per mesh cycle)."""
+    zs, zp, zr = 20, 22, 64
+    design_checks(zs, zp, zr, 3)
+    Ts, ws, mu, m_p = 100.0, 120.0, 0.05, 0.3
+    wc = ws * zs / (zs + zr)
+    Tc = Ts * (zs + zr) / zs
+    c_c = 0.5 * Tc / wc
+    sv = {"n_bodies": 5, "n_shafts": 0, "n_meshes": 6,
+          "body[1].J": 2e-3, "body[1].c": 0.0, "body[1].tau": Ts, "body[1].w_start": ws,
+          "body[2].J": 0.05, "body[2].c": c_c, "body[2].tau": 0.0, "body[2].w_start": wc}
+    simple_set(sv, 0, 1, 2, 0, [3, 4, 5], zs, zp, zr, 1.2e-4, m_p)
+    for m in range(1, 7):
+        sv[f"mesh[{m}].mu"] = mu
+    sv["body[3].pin_error_t"] = 2e-6
+    # the rigid set's inertia referred to the carrier, for the description
+    R = T.GearTrain(sv).R[2]
+    i_s, i_p = (zs + zr) / zs, (zr - zp) / zp      # |w_sun / w_c|, |w_planet / w_c| (ring fixed)
+    J_eff = sv["body[2].J"] + 3 * m_p * R ** 2 + 2e-3 * i_s ** 2 + 3 * 1.2e-4 * i_p ** 2
+    alpha0 = (Tc - c_c * wc) / J_eff
+    tau_c = J_eff / c_c
+    desc = f"""Bearing forces of a torsional planetary set (lateral.md section 6: body[i].Fx, \
+body[i].Fy, housing.Fx, housing.Fy, every centre held where planetary.md section 3 puts it): \
+planetary-pin-error's set (20/22/64, module 2 mm, R = {R * 1e3:.4f} mm, three planets J 1.2e-4, \
+m {m_p:g} kg, ring fixed, B = 0; planet 1, body 3, 2 um ahead along its orbit), with friction \
+mu = {mu:g} on all six meshes (v_reg 0.01 m/s: the friction forces lie along the flanks' \
+tangents, nearly radial at a planet, and flip at every pitch point) and a carrier that \
+ACCELERATES: the sun's {Ts:g} N.m at {ws:g} rad/s against a carrier drag of {c_c:.6g} N.m.s/rad, \
+which absorbs only half the set's {Tc:.6g} N.m at the Willis speed {wc:.6g} rad/s. The rigid \
+set's inertia referred to the carrier is {J_eff:.4f} kg.m^2 (carrier 0.05, orbital 3 x 0.3 R^2, \
+sun 2e-3 x 4.2^2, planets' spin 3 x 1.2e-4 x 1.91^2), so the carrier starts at {alpha0:.0f} \
+rad/s^2 and tends to twice its start speed with a time constant of {tau_c * 1e3:.0f} ms (the \
+reference ends at 54.3 rad/s, the sun at 227.5). What each term contributes (from the \
+reference trace): a planet's pin carries its two meshes' normal forces times cos(alpha_w) \
+tangentially (2.9-7.0 kN on planet 1), friction's nearly radial forces (planet 1's radial force \
+swings between -520 and +1130 N as they flip), the centripetal force m R Omega^2 inwards \
+({m_p * R * wc ** 2:.1f} N at the start, 37.9 N at the end) and m R alpha tangentially \
+({m_p * R * alpha0:.0f} N at the start); the pin error shares the load unequally (planet 1 \
+carries 38-78 % of the sun's torque over a mesh cycle, 45 % at the start) and the planets' \
+meshes are out of phase (20/3 teeth per planet spacing), so the sun's bearing carries a net \
+force of 0.36-3.3 kN and the carrier's a force that turns with it; every mesh stays in contact \
+(at 50 N.m, with part of the torque spent on the sun's acceleration, the 2 um error unloaded \
+planets 2 and 3 once per mesh cycle). The housing takes the rest, -sum m_n a_n, which only the \
+pin error leaves nonzero: m et (Omega^2 e_t + alpha e_r) at planet 1, 1.5 mN at the start \
+(mostly the carrier's acceleration), up to 2.0 mN. chi = 20 s/m; running start at the static \
+loads in the accelerating set (train_ref.quasi_static_start)."""
+    return "planetary-bearings", sv, desc, 0.03, 3e-5, dict(
+        variables=["body[1].w", "body[2].w", "body[3].w", "mesh[1].dte", "mesh[2].dte",
+                   "mesh[1].F_fwd", "mesh[2].F_fwd", "mesh[3].F_fwd", "mesh[4].F_fwd",
+                   "mesh[1].P_loss", "housing.tau"]
+        + [f"body[{i}].F{c}" for i in range(1, 6) for c in "xy"] + ["housing.Fx", "housing.Fy"])
+
+
 SCENES = [scene_simple, scene_mounted, scene_pin_error, scene_two_stage, scene_power_split,
-          scene_lumped_planetary]
+          scene_lumped_planetary, scene_bearings]
 
 
 def fmt(v):

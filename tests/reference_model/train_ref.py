@@ -143,6 +143,45 @@ silent:
     central member, a nonzero center_angle in a carrier's frame, an unconnected body, conflicting
     senses around a loop, a jammed body (no rigid rolling of the meshes, shafts absent, turns it).
 
+BEARING FORCES (lateral.md sections 3 and 6, for a purely torsional train: every centre held
+where planetary.md section 3 puts it; simulate(bearing_forces=True), or a scene that compares
+any of them, adds the outputs body[i].Fx, body[i].Fy, housing.Fx, housing.Fy [N]).
+  * A mesh's force on gear B, per carrying pair, in the single mesh's paper frame (O_A at the
+    origin, O_B at (d, 0), or (-d, 0) for an internal pair; A's forward sense clockwise): the
+    normal force F_n along the flank's line of action, n_f = (sin aw, -cos aw) forward and its
+    mirror about the line of centres n_b = (sin aw, cos aw) backward, and the friction force F_t
+    along the flank's tangent, t_f = (cos aw, sin aw) forward, t_b = (-cos aw, sin aw) backward;
+    A receives the opposite.  F_t is the torques' (gear-mesh-model.md section 4, planetary.md
+    section 1).  Derivation: with K_A = rAb (cos aw, sin aw), u = n_f and the contact point
+    C = K_A + s_A u, the moment about O_A of -F_n u - F_t t_f at C is F_n rAb - F_t s_A (K_A x u
+    = -rAb, K_A x t_f = 0, u x t_f = 1), the table's torque on A; about O_B = (d, 0) the moment
+    of F_n u + F_t t_f is F_n (d cos aw - rAb) + F_t (s_A - L) = F_n rBb - F_t s_B (external;
+    s_B = L - s_A up to delta), and about O_B = (-d, 0) it is -F_n (rAb + d cos aw) + F_t (s_A +
+    L) = -F_n rBb + F_t s_B (internal: rBb - rAb = d cos aw, s_B = s_A + L up to delta): the
+    single mesh's torques on B.  The backward flank is the mirror image (y -> -y) of all this.
+    For the lumped mesh F_n is its spring-damper force and F_t = 0.  The normal forces push the
+    gears apart along n (lateral.md section 3).
+  * Paper frame -> the frame the mesh sits in (gear-train.md section 3, planetary.md section 3):
+    v = Rot(beta_frame) (v_x, s_m v_y), s_m = -sigma_A (mirrored when sigma_A = +1), beta_frame
+    = beta (+ pi for an internal pair); a mesh in a carrier's frame is turned further by the
+    carrier's absolute angle psi_c = sigma_c theta_c (0 at t = 0) into the housing frame.
+  * A body on a housing-fixed axis (carriers included): (Fx, Fy) in the housing frame = minus
+    the sum of its meshes' forces, and for a carrier plus the sum of its planets' pin forces P_n
+    (the carrier receives -P_n from each).  Its centre does not move, so its mass does not enter.
+  * A planet n of carrier c: its pin exerts P_n = m_n a_n - (sum of its meshes' forces), with
+    a_n the acceleration of its centre p_n = Rot(psi_c) r_n moving with the carrier, r_n its pin
+    in the carrier's frame (planet_position: R_n + pin_error_r radially, pin_error_t
+    tangentially), a_n = Rot(psi_c) (-Omega^2 r_n + alpha J r_n), Omega = sigma_c w_c and alpha
+    = sigma_c dw_c/dt (absolute, counter-clockwise; dw_c/dt from the equations of motion at that
+    instant, with the torque inputs at t), J the quarter turn, m_n = body[n].m.  Reported in the
+    carrier's frame at the pin: Fx = P_n . e_r (radially outwards), Fy = P_n . e_t (tangentially,
+    counter-clockwise), e_r = r_n/|r_n|, e_t = J e_r.  A planet's meshes are all in its carrier's
+    frame, so P_n is formed there.  (The orbital inertia in the torsional equations stays m R^2
+    with the nominal R; a_n uses the actual pin r_n, as the bearing force is defined.)
+  * housing.Fx, housing.Fy: the forces of the meshes with a gear in the housing (an end 0) on
+    that gear, minus the bearing forces of every body on a housing-fixed axis (the housing
+    holds those bearings).  Newton's third law makes it -sum_n m_n a_n in the housing frame.
+
 Readings of the spec where it leaves room are listed in the report and marked in the code.
 """
 
@@ -537,7 +576,7 @@ class TrainMesh:
                     mA += Fn * rAb + Ft * sA
                     mB += -Fn * rBb - Ft * sB
                 if detail:
-                    forces.append((flank, n, Fn))
+                    forces.append((flank, n, Fn, Ft))
         if detail:
             return mA, mB, ploss, forces
         return mA, mB, ploss
@@ -558,10 +597,27 @@ class TrainMesh:
             mA -= flank * F * g.rAb
             mB += flank * F * g.rBb
             if detail:
-                forces += [(flank, n, F / len(ks)) for n in ks]
+                forces += [(flank, n, F / len(ks), 0.0) for n in ks]
         if detail:
             return mA, mB, ploss, forces
         return mA, mB, ploss
+
+    def force_on_B(self, forces):
+        """The mesh's force on gear B (gear A takes its opposite), in the frame the mesh sits in:
+        the housing's, or its carrier's for a mesh in a carrier's frame (module docstring,
+        BEARING FORCES).  forces: torques(detail=True)'s (flank, n, F_n, F_t) per carrying pair."""
+        ca, sa = math.cos(self.g.alpha_w), math.sin(self.g.alpha_w)
+        fx = fy = 0.0
+        for flank, _n, Fn, Ft in forces:
+            if flank == 1:      # n_f = (sin aw, -cos aw), tangent (cos aw, sin aw)
+                fx += Fn * sa + Ft * ca
+                fy += -Fn * ca + Ft * sa
+            else:               # n_b = (sin aw, cos aw), tangent (-cos aw, sin aw)
+                fx += Fn * sa - Ft * ca
+                fy += Fn * ca + Ft * sa
+        fy *= self.s            # the paper frame is mirrored when sigma_A = +1 (s = -1)
+        cb, sb = math.cos(self.beta_frame), math.sin(self.beta_frame)
+        return np.array([cb * fx - sb * fy, sb * fx + cb * fy])
 
     def k_mesh(self, ms):
         """Lumped mesh output k_mesh: the sum of k_eff over the flanks in contact."""
@@ -624,6 +680,12 @@ def pair_energy_quad(mesh, delta):
     val, _ = quad(lambda s: G.johnson_N(s, g.L + g.kappa * s, g.E_star), 0.0, delta,
                   epsabs=0.0, epsrel=1e-13, limit=200)
     return mesh.width * val
+
+
+def _rot(angle, v):
+    """The vector v turned counter-clockwise by angle."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
 
 
 def reduce_angle(psi, z):
@@ -1777,11 +1839,15 @@ class GearTrain:
 
     # ---------------------------------------------------------------- main loop
     def simulate(self, stop_time, output_interval, inputs: TrainInputs | None = None,
-                 rtol=1e-10, method="DOP853", perturb_w1=0.0, max_restarts=2_000_000):
+                 rtol=1e-10, method="DOP853", perturb_w1=0.0, max_restarts=2_000_000,
+                 bearing_forces=False):
         """Integrate over [0, stop_time]; sample on k*output_interval and at every event
-        (two rows: before, after).  perturb_w1: added to body 1's start speed (only)."""
+        (two rows: before, after).  perturb_w1: added to body 1's start speed (only).
+        bearing_forces: the outputs also have body[i].Fx, body[i].Fy, housing.Fx, housing.Fy."""
         if inputs is None:
             inputs = TrainInputs.constant([b.tau for b in self.bodies])
+        self._inputs = inputs
+        self.bearing_outputs = bool(bearing_forces)
         n = self.n
         y = self.initial_state()
         if perturb_w1:
@@ -1832,7 +1898,11 @@ class GearTrain:
         return self._sample(grid, segments, events, n_restart, n_missed, n_hidden)
 
     # ---------------------------------------------------------------- outputs
-    def output_names(self):
+    def output_names(self, bearing=None):
+        """bearing: with the bearing forces (lateral.md section 6) before the energies; default:
+        as the last simulate() ran (simulate(bearing_forces=...), off unless asked)."""
+        if bearing is None:
+            bearing = getattr(self, "bearing_outputs", False)
         names = ["time"]
         for i in range(1, self.nb + 1):
             names += [f"body[{i}].theta", f"body[{i}].w"]
@@ -1844,6 +1914,10 @@ class GearTrain:
                 names.append(f"mesh[{m}].k_mesh")
         if self.general:
             names.append("housing.tau")
+        if bearing:
+            for i in range(1, self.nb + 1):
+                names += [f"body[{i}].Fx", f"body[{i}].Fy"]
+            names += ["housing.Fx", "housing.Fy"]
         return names + ["E_kin", "E_el", "E_gate", "W_ext", "W_loss", "energy_residual"]
 
     def elastic_energy(self, y, cfg):
@@ -1855,7 +1929,7 @@ class GearTrain:
             U += 0.5 * s.k * (self._q(s, y[:n]) + s.twist0) ** 2
         return U
 
-    def _outputs_general(self, t, y, cfg, e_gate):
+    def _outputs_general(self, t, y, cfg, e_gate, bearing=False, tau=None):
         n = self.n
         x, xd = y[:n], y[n:2 * n]
         th, w = self.T @ x, self.T @ xd
@@ -1870,6 +1944,7 @@ class GearTrain:
                 hous -= s.sg * ts
             if s.b == self.H:
                 hous += s.sg * ts
+        mesh_forces = []
         for mesh, ms in zip(self.meshes, cfg.meshes):
             dte = self._e(mesh, x) + mesh.dte0
             thA, _thB = self._rel(mesh, th)
@@ -1878,7 +1953,10 @@ class GearTrain:
                                               ms.kf, ms.kb, detail=True)
             hous += self._apply_mesh(np.zeros(self.nb + 1), mesh, mA, mB)
             row += self._mesh_row(mesh, ms, dte, forces, pl)
+            mesh_forces.append(forces)
         row.append(hous)
+        if bearing:
+            row += self.bearing_forces(t, y, cfg, th, w, mesh_forces, tau)
         E_kin = 0.5 * float(np.sum(self.J * w * w))
         E_el = self.elastic_energy(y, cfg)
         row += [E_kin, E_el, e_gate, y[2 * n], y[2 * n + 1]]
@@ -1888,7 +1966,7 @@ class GearTrain:
     def _mesh_row(mesh, ms, dte, forces, pl):
         """A mesh's output columns (output_names' order)."""
         F = {"f1": 0.0, "f2": 0.0, "b1": 0.0, "b2": 0.0}
-        for flank, nA, Fn in forces:
+        for flank, nA, Fn, _Ft in forces:
             # model 1: reported >= 0 (at an event instant delta may be -1e-21 on the side that
             # leaves); the lumped mesh's F is not clipped (lateral.md section 4, the brief)
             F[mesh.object_name(flank, nA)] += Fn if mesh.lumped else max(Fn, 0.0)
@@ -1898,10 +1976,14 @@ class GearTrain:
             row.append(mesh.k_mesh(ms))
         return row
 
-    def outputs(self, t, y, cfg, e_gate):
-        """One output row (without energy_residual, added in _sample)."""
+    def outputs(self, t, y, cfg, e_gate, bearing=None, tau=None):
+        """One output row (without energy_residual, added in _sample).  bearing: with the
+        bearing forces (default: as output_names); tau: the torque inputs at t (default: the last
+        simulate()'s inputs, else the body[i].tau parameters), for the accelerations they need."""
+        if bearing is None:
+            bearing = getattr(self, "bearing_outputs", False)
         if self.general:
-            return self._outputs_general(t, y, cfg, e_gate)
+            return self._outputs_general(t, y, cfg, e_gate, bearing, tau)
         n = self.n
         x, xd = y[:n], y[n:2 * n]
         th, w = self.T @ x, self.T @ xd
@@ -1910,15 +1992,76 @@ class GearTrain:
             row += [th[i], w[i]]
         for s in self.shafts:
             row.append(s.k * (x[s.iq] + s.twist0) + s.d * xd[s.iq])
+        mesh_forces = []
         for mesh, ms in zip(self.meshes, cfg.meshes):
             dte = x[mesh.ie] + mesh.dte0
             _mA, _mB, pl, forces = mesh.torques(mesh.g.rAb * th[mesh.A], dte, w[mesh.A],
                                                 w[mesh.B], xd[mesh.ie], ms.kf, ms.kb, detail=True)
             row += self._mesh_row(mesh, ms, dte, forces, pl)
+            mesh_forces.append(forces)
+        if bearing:
+            row += self.bearing_forces(t, y, cfg, th, w, mesh_forces, tau)
         E_kin = 0.5 * float(np.sum([b.J * wi * wi for b, wi in zip(self.bodies, w)]))
         E_el = self.elastic_energy(y, cfg)
         row += [E_kin, E_el, e_gate, y[2 * n], y[2 * n + 1]]
         return row
+
+    def _tau_at(self, t):
+        inputs = getattr(self, "_inputs", None)
+        if inputs is None:
+            return np.array([b.tau for b in self.bodies])
+        return tau_at(inputs.segment(t), t)
+
+    def is_planet(self, i):
+        return self.general and i != self.H and self.carrier_of[i] is not None
+
+    def bearing_forces(self, t, y, cfg, th, w, mesh_forces, tau=None):
+        """[body[1].Fx, body[1].Fy, ..., housing.Fx, housing.Fy] (module docstring, BEARING
+        FORCES): th, w the bodies' forward angles and speeds, mesh_forces each mesh's
+        torques(detail=True) pairs."""
+        nb = self.nb
+        H = self.H if self.general else None
+        planets = [i for i in range(nb) if self.is_planet(i)]
+
+        def psi_abs(c):                      # a carrier's absolute angle (0 at t = 0)
+            return self.psi0[c] + self.sigma[c] * th[c]
+        # the meshes' forces on each body: a planet's in its carrier's frame, the others' (and
+        # the housing's, row nb) in the housing frame
+        F = np.zeros((nb + 1, 2))
+        for mesh, forces in zip(self.meshes, mesh_forces):
+            if not forces:
+                continue
+            fB = mesh.force_on_B(forces)
+            c = getattr(mesh, "carrier", None)
+            fB_h = _rot(psi_abs(c), fB) if c is not None else fB
+            for X, sgn in ((mesh.B, 1.0), (mesh.A, -1.0)):
+                if self.is_planet(X):
+                    if self.carrier_of[X] != c:
+                        raise RuntimeError(f"mesh[{mesh.m}]: a planet's mesh outside its carrier's frame")
+                    F[X] += sgn * fB
+                else:
+                    F[nb if X == H else X] += sgn * fB_h
+        out = np.zeros((nb, 2))
+        pins_on_carrier = np.zeros((nb, 2))   # sum of P_n of each carrier's planets, housing frame
+        if planets:
+            acc = self.accelerations(t, y, cfg, self._tau_at(t) if tau is None else tau)
+        for i in planets:
+            c = self.carrier_of[i]
+            r = np.array(self.planet_position(i))          # pin, carrier frame
+            er = r / math.hypot(r[0], r[1])
+            et = np.array([-er[1], er[0]])
+            Om, al = self.sigma[c] * w[c], self.sigma[c] * acc[c]    # absolute, counter-clockwise
+            a = -Om * Om * r + al * np.array([-r[1], r[0]])
+            P = self.bodies[i].mass * a - F[i]             # the pin's force on the planet
+            out[i] = (float(P @ er), float(P @ et))
+            pins_on_carrier[c] += _rot(psi_abs(c), P)
+        hous = F[nb].copy()
+        for i in range(nb):
+            if i in planets:
+                continue
+            out[i] = -F[i] + pins_on_carrier[i]
+            hous -= out[i]
+        return [float(v) for v in out.ravel()] + [float(hous[0]), float(hous[1])]
 
     def _sample(self, grid, segments, events, n_restart, n_missed, n_hidden):
         merged = []
@@ -2321,7 +2464,16 @@ def run_scene(scene, rtol=None, method="DOP853", perturb_rel=0.0):
     tr, inputs = scene_model(scene)
     dw = perturb_rel * max(abs(tr.bodies[0].w0), 1.0)
     return tr.simulate(scene["stop_time"], scene["output_interval"], inputs, rtol=rtol,
-                       method=method, perturb_w1=dw)
+                       method=method, perturb_w1=dw, bearing_forces=scene_wants_bearing(scene))
+
+
+BEARING_OUTPUT = re.compile(r"^(body\[\d+\]|housing)\.F[xy]$")
+
+
+def scene_wants_bearing(scene):
+    """A scene's trace has the bearing forces when it compares any of them (the other scenes'
+    traces keep their columns, which tools and the Rust runner's default columns mirror)."""
+    return any(BEARING_OUTPUT.match(v) for v in scene.get("compare", {}).get("variables", []))
 
 
 def statistics(names, table, output_interval, train: GearTrain):
