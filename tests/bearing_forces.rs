@@ -1,24 +1,16 @@
 //! The bearings' forces of a torsional train (lateral.md §6, §7 "Bearing forces") against
 //! closed forms and symmetry. Every tolerance states where it comes from.
 
+mod train_parts;
+
 use spur_gear_mesh::driver::train_simulation::TrainSimulation;
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::train::statics::static_start;
-use spur_gear_mesh::model::train::{Body, MeshPlace, Planet, Ripple, TrainSpec, HOUSING};
+use spur_gear_mesh::model::train::{Body, MeshPlace, Planet, TrainSpec, HOUSING};
 use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
-
-fn body(j: f64) -> Body {
-    Body {
-        j,
-        c: 0.0,
-        w_start: 0.0,
-        ripple: Ripple::NONE,
-        speed_driven: false,
-        planet: None,
-    }
-}
+use train_parts::{body, pair};
 
 fn mesh(a: usize, b: usize, center_angle: f64, p: &Params) -> MeshPlace {
     MeshPlace {
@@ -109,23 +101,6 @@ fn at_static_load_each_bearing_holds_its_mesh_forces() {
         );
     }
     assert!(close(bf.housing, [0.0, 0.0], tol), "{:?}", bf.housing);
-}
-
-/// A pair of the worked planetary set (scenes/train/planetary-simple.toml).
-fn pair(z_a: i32, z_b: i32, x_a: f64, x_b: f64, internal: bool) -> Params {
-    Params {
-        geometry: 2,
-        module: 0.002,
-        zA: z_a,
-        zB: z_b,
-        xA: x_a,
-        xB: x_b,
-        width: 0.02,
-        backlash: 5e-5,
-        chi: 20.0,
-        internal,
-        ..Params::default()
-    }
 }
 
 /// Sun (body 1), carrier (body 2), three planets of mass m equally spaced, ring fixed.

@@ -3,41 +3,15 @@
 //! loop-closing meshes' start penetrations). The dynamic checks of §6 run on the FMU
 //! (tests/python/test_planetary_checks.py).
 
+mod train_parts;
+
 use spur_gear_mesh::model::train::{
-    coord_index, Body, MeshPlace, Planet, Ripple, Shaft, Train, TrainSpec, HOUSING,
+    coord_index, Body, MeshPlace, Planet, Shaft, Train, TrainSpec, HOUSING,
 };
 use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
-
-/// A pair of the worked set (scenes/train/planetary-simple.toml): module 2 mm, sun 21 teeth at
-/// x = 0.5, planets 18 at x = 0, ring 57 at x = 0.5.
-fn pair(z_a: i32, z_b: i32, x_a: f64, x_b: f64, internal: bool) -> Params {
-    Params {
-        geometry: 2,
-        module: 0.002,
-        zA: z_a,
-        zB: z_b,
-        xA: x_a,
-        xB: x_b,
-        width: 0.02,
-        backlash: 5e-5,
-        chi: 20.0,
-        internal,
-        ..Params::default()
-    }
-}
-
-fn body(j: f64) -> Body {
-    Body {
-        j,
-        c: 0.0,
-        w_start: 0.0,
-        ripple: Ripple::NONE,
-        speed_driven: false,
-        planet: None,
-    }
-}
+use train_parts::{body, pair};
 
 fn planet(carrier: usize, orbit_angle: f64) -> Body {
     Body {
