@@ -18,8 +18,7 @@ use gear_model::driver::{Method, Stats};
 use gear_model::model::mesh::LawOutOfRange;
 use gear_model::model::statistics::{Statistics, Summary};
 use gear_model::model::train::statics::{static_start, StartDeflections};
-use gear_model::model::train::MAX_BODIES;
-use gear_model::model::train::{self, State, Train, N_MARGINS, N_MASTER_STATES};
+use gear_model::model::train::{self, State, Train, MAX_BODIES, N_MARGINS, N_MASTER_STATES};
 use gear_model::variables as single;
 use rig_fmu::{Rig, Run};
 
@@ -209,7 +208,6 @@ fn write_outputs(
 ) -> Result<(), String> {
     let b = train.bodies(y);
     let mut per_mesh = Vec::with_capacity(train.meshes.len());
-
     for m in 0..train.meshes.len() {
         let r = train.mesh_readout_at(m, y, &b).map_err(|e| e.to_string())?;
         let run = stats
