@@ -289,22 +289,30 @@ impl<R: Rig> RigInstance<R> {
             .copied()
             .filter(|&v| <R::Table as Table>::info(v).role == Role::Parameter)
             .collect();
-        // The parameters (about a thousand in a train) are copied only when a set changes one:
-        // inputs change at every communication step.
-        let mut params = (!changed.is_empty()).then(|| self.snap.params.clone());
+        // The parameters (about a thousand in a train) are set in place and the ones changed
+        // put back if the set is refused: a copy of them all per set was most of the cost of
+        // setting a scene's start values.
+        let saved: Vec<Saved> = changed
+            .iter()
+            .map(|&v| Saved::of(&self.snap.params, v))
+            .collect();
         let mut inputs = self.snap.inputs.clone();
         let mut extra = self.snap.extra.clone();
         let now = self.time();
         for (&v, x) in vars.iter().zip(values) {
-            let p = params.as_mut().unwrap_or(&mut self.snap.params);
-            apply(p, &mut inputs, v, x.clone());
+            apply(&mut self.snap.params, &mut inputs, v, x.clone());
             R::on_set(&mut extra, v, now);
         }
         // Inputs need only be finite (checked above); parameters against the table (the rig
         // says how much a set can change).
-        if let Some(params) = params {
-            R::validate_changed(&params, &changed).map_err(error)?;
-            self.snap.params = params;
+        if !changed.is_empty() {
+            if let Err(e) = R::validate_changed(&self.snap.params, &changed) {
+                // In reverse: a variable set twice gets its value from before the set.
+                for (&v, old) in changed.iter().zip(saved).rev() {
+                    old.restore(&mut self.snap.params, v);
+                }
+                return Err(error(e));
+            }
         }
         self.snap.inputs = inputs;
         self.snap.extra = extra;
@@ -316,6 +324,41 @@ impl<R: Rig> RigInstance<R> {
             self.snap.sim = None;
         }
         Ok(())
+    }
+}
+
+/// A parameter's value before a set, to put back if the set is refused.
+enum Saved {
+    Real(f64),
+    Integer(i32),
+    Boolean(bool),
+    String(String),
+    None,
+}
+
+impl Saved {
+    fn of<T: Table, V: Values<T>>(p: &V, v: T::Var) -> Saved {
+        if let Some(x) = p.get_real(v) {
+            Saved::Real(x)
+        } else if let Some(x) = p.get_integer(v) {
+            Saved::Integer(x)
+        } else if let Some(x) = p.get_boolean(v) {
+            Saved::Boolean(x)
+        } else if let Some(x) = p.get_string(v) {
+            Saved::String(x.to_string())
+        } else {
+            Saved::None
+        }
+    }
+
+    fn restore<T: Table, V: Values<T>>(self, p: &mut V, v: T::Var) {
+        match self {
+            Saved::Real(x) => p.set_real(v, x),
+            Saved::Integer(x) => p.set_integer(v, x),
+            Saved::Boolean(x) => p.set_boolean(v, x),
+            Saved::String(x) => p.set_string(v, x),
+            Saved::None => false,
+        };
     }
 }
 
