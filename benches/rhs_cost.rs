@@ -154,6 +154,7 @@ fn train_setup(n: usize) -> (Train, Vec<train::State>) {
             w_start: 100.0 / 1.5f64.powi(i as i32),
             ripple: Ripple::NONE,
             speed_driven: false,
+            lateral: None,
             planet: None,
         })
         .collect();
@@ -218,6 +219,7 @@ fn planetary_setup() -> (Train, Vec<train::State>, [(PaperRig, Vec<State>); 2]) 
         w_start: w,
         ripple: Ripple::NONE,
         speed_driven: false,
+        lateral: None,
         planet,
     };
     let mut bodies = vec![

@@ -6,33 +6,11 @@ mod train_parts;
 use spur_gear_mesh::driver::train_simulation::TrainSimulation;
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::train::statics::static_start;
-use spur_gear_mesh::model::train::{Body, MeshPlace, Planet, TrainSpec, HOUSING};
+use spur_gear_mesh::model::train::{Body, Planet, TrainSpec, HOUSING};
 use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
-use train_parts::{body, pair};
-
-fn mesh(a: usize, b: usize, center_angle: f64, p: &Params) -> MeshPlace {
-    MeshPlace {
-        a,
-        b,
-        center_angle,
-        mount_a: 0.0,
-        mount_b: 0.0,
-        pair: table::pair(p).unwrap(),
-        dte_start: 0.0,
-    }
-}
-
-/// The unit vector along which mesh m's forward flank pushes B (lateral.md §3), in the housing
-/// frame, from the spec's single-mesh frame: (sin a, -cos a) with O_B on the x axis and A
-/// turning clockwise forward, mirrored when A turns counter-clockwise (gear-train.md §3).
-fn n_forward(alpha_w: f64, center_angle: f64, a_counter_clockwise: bool) -> [f64; 2] {
-    let (s, c) = alpha_w.sin_cos();
-    let y = if a_counter_clockwise { c } else { -c };
-    let (sb, cb) = center_angle.sin_cos();
-    [cb * s - sb * y, sb * s + cb * y]
-}
+use train_parts::{body, mesh, n_forward, pair};
 
 /// The spec with its static start under the torques tau (at the bodies' start speeds).
 fn balanced(spec: TrainSpec, tau: &[f64]) -> TrainSpec {

@@ -438,6 +438,7 @@ fn random_config(rng: &mut Rng, internal: bool, n: usize) -> Result<Config, Stri
         w_start: 0.0,
         ripple: Ripple::NONE,
         speed_driven: false,
+        lateral: None,
         planet: None,
     };
     Ok(Config {

@@ -50,6 +50,7 @@ fn one_mesh_train_mounted(p: &Params, mount_b: f64) -> TrainSpec {
                 w_start: p.w_A_start,
                 ripple: Ripple::NONE,
                 speed_driven: false,
+                lateral: None,
                 planet: None,
             },
             Body {
@@ -58,6 +59,7 @@ fn one_mesh_train_mounted(p: &Params, mount_b: f64) -> TrainSpec {
                 w_start: p.w_B_start,
                 ripple: Ripple::NONE,
                 speed_driven: false,
+                lateral: None,
                 planet: None,
             },
         ],
@@ -237,6 +239,7 @@ fn reducer(shaft_k: f64) -> TrainSpec {
         w_start: w,
         ripple: Ripple::NONE,
         speed_driven: false,
+        lateral: None,
         planet: None,
     };
     let stage = |a: usize, b: usize| MeshPlace {
@@ -496,6 +499,7 @@ fn a_ripple_on_a_lone_body_does_the_work_of_its_closed_form() {
             w_start: w0,
             ripple,
             speed_driven: false,
+            lateral: None,
             planet: None,
         }],
         angle_start: 0.0,

@@ -8,19 +8,29 @@ SCENE is a train scene (scenes/train/*.toml) or a gearbox file. The train starts
 under the scene's start loads (static_start = true) and is linearized there through Model
 Exchange's directional derivatives (fmi2GetDirectionalDerivative, by central differences in the
 binary: fmi2-slave/src/directional.rs): J = d(der(x))/dx over the coordinates in use and their
-rates. With x = (q, q') the rates' rows give q'' = -K q - C q' about the balance: the undamped
-natural frequencies are sqrt(eig(K)) / (2 pi), the damped ones and their damping ratios come from
-eig(J). The meshes keep the modes of the balance (the flanks in contact, the pairs on their
-segments), so a mode is that of the mesh's current stiffness: its mean over a mesh cycle is what a
-lumped mesh with k_lumped_varies = false gives exactly.
+rates, the lateral bodies' translations included (lateral.md). Each mode is an eigenvalue
+lambda = -zeta w + i w sqrt(1 - zeta^2) of J: its natural frequency |lambda| / (2 pi), its damped
+frequency Im(lambda) / (2 pi) and its damping ratio -Re(lambda) / |lambda|. On a turning carrier
+the Coriolis terms of the planets' translations are in J's velocity block, so the frequencies are
+those of the gyroscopic system (undamped, |lambda| is exact). The meshes keep the modes of the
+balance (the flanks in contact, the pairs on their segments), so a mode is that of the mesh's
+current stiffness: its mean over a mesh cycle is what a lumped mesh with k_lumped_varies = false
+gives exactly.
+
+Each mode is classified by its central members (the bodies that are not planets): rotational when
+they only turn, translational when they only translate, a planet mode when they stay still, mixed
+otherwise (Lin & Parker 1999; an equally spaced set of identical planets has only the first
+three, translational ones double). Rotations count as r theta with r the body's largest gear
+radius (a carrier's orbit radius), as Lin & Parker's u = r theta.
 
 A speed-driven body's speed is given, not free: its coordinate is left out (it comes first).
 Mode shapes are the bodies' rotations per mode (d theta_i / d q from the outputs' directional
-derivatives), drawn on the layout (tools/train_layout.py) with --plot. With --speed the start
-speeds of the scene are scaled so that body 1 turns at W1 ... W2 rad/s and the frequencies are
-drawn against it (Campbell diagram) with each mesh's tooth frequency z_A |w_A - w_c| / (2 pi)
-as an excitation line; the torsional model has no gyroscopic terms, so its modes move only as
-the balance moves.
+derivatives) and their translations, drawn on the layout (tools/train_layout.py) with --plot.
+With --speed the start speeds of the scene are scaled so that body 1 turns at W1 ... W2 rad/s
+and the frequencies are drawn against it (Campbell diagram) with each mesh's tooth frequency
+z_A |w_A - w_c| / (2 pi) as an excitation line; a torsional model's modes move only as the
+balance moves, a lateral one's also split and shift with the carrier's Coriolis and centrifugal
+terms.
 """
 
 from __future__ import annotations
@@ -52,12 +62,17 @@ def _set(model, md_vars, name, value):
         model.setString([v.valueReference], [str(value)])
 
 
+def lateral_bodies(start_values: dict, n: int) -> list[int]:
+    """The lateral bodies, whose x and y follow the rotations among the coordinates."""
+    return [i for i in range(1, n + 1) if bool(start_values.get(f"body[{i}].lateral", False))]
+
+
 def linearize(fmu: Path, start_values: dict) -> dict:
     """The train's Jacobian about its static balance, and what reads it.
 
     Returns {'J': d(der(x))/dx over the free coordinates and rates (values first, then rates),
-    'coords': their names, 'T': d(body theta)/d(coordinate value) (bodies x coords),
-    'outputs': the balance's bearing and mesh outputs, 'n_bodies'}."""
+    'coords': their names, 'T': d(body theta)/d(coordinate value) (bodies x coords), 'X':
+    d(body x, y)/d(coordinate value) (2 bodies x coords, x then y per body), 'n_bodies'}."""
     import fmpy
     from fmpy.fmi2 import FMU2Model
 
@@ -82,7 +97,8 @@ def linearize(fmu: Path, start_values: dict) -> dict:
         n = int(start_values.get("n_bodies", by_name["n_bodies"].start))
         driven = sum(1 for i in range(1, n + 1)
                      if int(start_values.get(f"body[{i}].drive", 0)) == 1)
-        coords = list(range(driven + 1, n + 1))
+        n_coords = n + 2 * len(lateral_bodies(start_values, n))
+        coords = list(range(driven + 1, n_coords + 1))
         value = [by_name[f"coordinate[{k}].value"].valueReference for k in coords]
         rate = [by_name[f"coordinate[{k}].rate"].valueReference for k in coords]
         der = [by_name[f"der(coordinate[{k}].{w})"].valueReference
@@ -91,50 +107,99 @@ def linearize(fmu: Path, start_values: dict) -> dict:
         J = np.array([m.getDirectionalDerivative(der, [s], [1.0]) for s in states]).T
         thetas = [by_name[f"body[{i}].theta"].valueReference for i in range(1, n + 1)]
         T = np.array([m.getDirectionalDerivative(thetas, [s], [1.0]) for s in value]).T
+        xy = [by_name[f"body[{i}].{c}"].valueReference for i in range(1, n + 1) for c in "xy"]
+        X = np.array([m.getDirectionalDerivative(xy, [s], [1.0]) for s in value]).T
         m.terminate()
     finally:
         m.freeInstance()
-    return {"J": J, "coords": [f"coordinate[{k}]" for k in coords], "T": T, "n_bodies": n}
+    return {"J": J, "coords": [f"coordinate[{k}]" for k in coords], "T": T, "X": X,
+            "n_bodies": n}
 
 
-def modes(lin: dict) -> list[dict]:
-    """Undamped frequencies [Hz] in ascending order with their damped frequency and damping
-    ratio (from eig(J), matched by frequency) and the bodies' rotations (unit largest)."""
+def _radii(start_values: dict, n: int) -> np.ndarray:
+    """Each body's radius for its rotation's share (Lin & Parker's u = r theta): its largest
+    base radius, a carrier's largest orbit radius."""
+    lay = TL.layout(start_values)
+    r = np.ones(n)
+    for i, b in lay["bodies"].items():
+        radii = [g["r_b"] for g in b["gears"]] + [lay["bodies"][p]["R"] for p in b["planets"]]
+        if radii:
+            r[i - 1] = max(radii)
+    return r
+
+
+def classify(rot: np.ndarray, trans: np.ndarray, central: list[int]) -> str:
+    """rotational, translational, planet or mixed, from the central members' shares (rot: r
+    theta per body; trans: (x, y) per body) against the shape's largest entry."""
+    big = max(np.max(np.abs(rot)), np.max(np.abs(trans)), 1e-300)
+    turns = max((abs(rot[i]) for i in central), default=0.0) > 1e-4 * big
+    moves = max((np.hypot(*trans[i]) for i in central), default=0.0) > 1e-4 * big
+    return {(True, False): "rotational", (False, True): "translational",
+            (False, False): "planet", (True, True): "mixed"}[(turns, moves)]
+
+
+def modes(lin: dict, start_values: dict | None = None) -> list[dict]:
+    """The modes in ascending natural frequency [Hz] with damped frequency, damping ratio,
+    shape (each body's rotation, unit largest, and translation 'trans') and kind. Rigid
+    rotations (zero frequency) come from K = -J[rates, values]'s null space. With the scene's
+    start values the kinds tell rotational, translational and planet modes apart."""
     J = lin["J"]
     c = len(lin["coords"])
+    n = lin["n_bodies"]
     K = -J[c:, :c]
-    lam, vec = np.linalg.eig(K)
-    order = np.argsort(lam.real)
-    full = np.linalg.eigvals(J)
+    kl, kv = np.linalg.eig(K)
+    top = max(np.max(np.abs(kl)), 1e-300)
+    rigid = [kv[:, k].real for k in range(c) if abs(kl[k]) <= 1e-9 * top]
+    lam, vec = np.linalg.eig(J)
+    osc = [k for k in range(2 * c) if lam[k].imag > 1e-6 * math.sqrt(top)]
+    X = lin.get("X", np.zeros((2 * n, c)))
+    r = _radii(start_values, n) if start_values else np.ones(n)
+    central = ([i - 1 for i in range(1, n + 1)
+                if not int(start_values.get(f"body[{i}].carrier", 0))]
+               if start_values else list(range(n)))
     out = []
-    for i in order:
-        w2 = lam[i].real
-        w = math.sqrt(max(w2, 0.0))
-        shape = lin["T"] @ vec[:, i].real
-        big = np.max(np.abs(shape))
-        shape = shape / big if big > 0 else shape
-        # The eigenvalue of J closest to i w (its upper half), for the damping.
-        near = min(full, key=lambda s: abs(s - 1j * w)) if w > 0 else 0.0
-        zeta = -near.real / abs(near) if w > 0 and abs(near) > 0 else 0.0
+    shapes = [(0.0, 0.0, v) for v in rigid]
+    for k in osc:
+        v = vec[:c, k]
+        v = v * np.conj(v[np.argmax(np.abs(v))])
+        shapes.append((lam[k], abs(lam[k]), v.real))
+    for near, w, v in sorted(shapes, key=lambda x: x[1]):
+        rot, trans = lin["T"] @ v, (X @ v).reshape(n, 2)
+        big = max(np.max(np.abs(rot)), np.max(np.abs(trans)))
+        if big > 0:
+            rot, trans = rot / big, trans / big
+        kind = "rigid rotation" if w == 0 else classify(r * rot, trans, central)
+        zeta = -complex(near).real / w if w > 0 else 0.0
         out.append({"f": w / (2 * math.pi), "f_damped": abs(complex(near).imag) / (2 * math.pi),
-                    "zeta": zeta, "shape": shape,
-                    "kind": "rotational" if w > 0 else "rigid rotation"})
+                    "zeta": zeta, "shape": rot, "trans": trans, "kind": kind})
     return out
+
+
+def multiplicities(ms: list[dict], rel: float = 1e-6) -> list[tuple[float, int, str]]:
+    """The distinct frequencies with their multiplicity and kind: frequencies within `rel` of
+    each other are one (the Jacobian's differences resolve a double mode to about 1e-8)."""
+    out: list[list] = []
+    for md in ms:
+        if out and abs(md["f"] - out[-1][0]) <= rel * max(md["f"], 1e-300):
+            out[-1][1] += 1
+        else:
+            out.append([md["f"], 1, md["kind"]])
+    return [tuple(o) for o in out]
 
 
 def print_table(ms: list[dict], n_bodies: int) -> None:
     print("| mode | f [Hz] | f damped [Hz] | damping ratio | kind | largest rotations (body: share) |")
     print("|---|---|---|---|---|---|")
     for k, md in enumerate(ms, 1):
-        top = np.argsort(-np.abs(md["shape"]))[:3]
-        rot = ", ".join(f"{i + 1}: {md['shape'][i]:+.2f}" for i in top)
+        top = [i for i in np.argsort(-np.abs(md["shape"]))[:3] if abs(md["shape"][i]) > 1e-6]
+        rot = ", ".join(f"{i + 1}: {md['shape'][i]:+.2f}" for i in top) or "-"
         print(f"| {k} | {abs(md['f']):.2f} | {md['f_damped']:.2f} | {md['zeta']:.4f} | {md['kind']} "
               f"| {rot} |")
 
 
 def plot_shapes(start_values: dict, ms: list[dict], path: Path) -> None:
-    """Each mode on the layout: every body's gears, and a spoke turned by its modal rotation
-    (the largest 45 degrees), red forward, blue backward."""
+    """Each mode on the layout: every body's gears, a spoke turned by its modal rotation (the
+    largest 45 degrees), red forward, blue backward, and a green arrow for its translation."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -156,11 +221,22 @@ def plot_shapes(start_values: dict, ms: list[dict], path: Path) -> None:
             ax.plot([c[0], c[0] + r * math.cos(turn)], [c[1], c[1] + r * math.sin(turn)],
                     color="tab:red" if a >= 0 else "tab:blue", lw=2)
             ax.plot([c[0], c[0] + r], [c[1], c[1]], color="0.8", lw=0.8)
+            # A translation (lateral bodies; a planet's in its carrier's frame, which starts
+            # at 0): an arrow from the centre, the largest half the body's radius.
+            t = md.get("trans", np.zeros((len(md["shape"]), 2)))[i - 1]
+            if np.hypot(*t) > 1e-6:
+                if b["carrier"]:
+                    a_p = b["orbit_angle"]
+                    t = [t[0] * math.cos(a_p) - t[1] * math.sin(a_p),
+                         t[0] * math.sin(a_p) + t[1] * math.cos(a_p)]
+                ax.annotate("", xy=(c[0] + 0.5 * r * t[0], c[1] + 0.5 * r * t[1]), xytext=c,
+                            arrowprops={"arrowstyle": "->", "color": "tab:green", "lw": 1.5})
         ax.set_aspect("equal")
         ax.autoscale()
-        ax.set_title(f"{md['f']:.1f} Hz", fontsize=9)
+        ax.set_title(f"{md['f']:.1f} Hz, {md['kind']}", fontsize=9)
         ax.axis("off")
-    fig.suptitle("Mode shapes: each body's rotation (grey: at rest)", fontsize=9)
+    fig.suptitle("Mode shapes: each body's rotation (grey: at rest) and translation (green)",
+                 fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
 
@@ -181,7 +257,7 @@ def campbell(fmu: Path, start_values: dict, w1: float, w2: float, points: int, p
         for k, v in start_values.items():
             if k.endswith(".w_start") or k.endswith(".w_in"):
                 sv[k] = float(v) * w / w0
-        freqs.append([md["f"] for md in modes(linearize(fmu, sv)) if md["f"] > 0])
+        freqs.append([md["f"] for md in modes(linearize(fmu, sv), sv) if md["f"] > 0])
     fig, ax = plt.subplots(figsize=(6, 4))
     for k in range(min(len(f) for f in freqs)):
         ax.plot(speeds, [f[k] for f in freqs], "k-", lw=1)
@@ -226,7 +302,7 @@ def main(argv=None) -> None:
     a = ap.parse_args(argv)
     sv = TL.load_scene(a.scene)
     lin = linearize(a.fmu, sv)
-    ms = modes(lin)
+    ms = modes(lin, sv)
     print_table(ms, lin["n_bodies"])
     if a.plot:
         plot_shapes(sv, ms, a.plot)

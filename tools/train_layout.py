@@ -67,7 +67,10 @@ COUNT_NAMES = {"body": "n_bodies", "shaft": "n_shafts", "mesh": "n_meshes"}
 TRAIN_SCALARS = {"solver", "rel_tol", "statistics", "stats_start"}
 BODY_FIELDS = {"J", "c", "w_start", "tau", "tau_ripple", "ripple_order", "ripple_phase",
                # planetary.md section 3: a planet's carrier, orbit angle, mass, pin errors
-               "carrier", "orbit_angle", "m", "pin_error_r", "pin_error_t"}
+               "carrier", "orbit_angle", "m", "pin_error_r", "pin_error_t",
+               # lateral.md section 1: a lateral body's bearing and start (not drawn)
+               "lateral", "k_x", "k_y", "c_x", "c_y", "x_start", "y_start", "vx_start",
+               "vy_start"}
 # + angle_start on body[1] only
 SHAFT_FIELDS = {"a", "b", "k", "d", "twist_start"}
 MESH_PLACEMENT = {"A", "B", "center_angle", "mount_A", "mount_B"}

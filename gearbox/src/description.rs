@@ -31,7 +31,7 @@ pub struct Orbit {
     pub pin_error_t: Option<f64>,
 }
 
-/// A body's bearing in the plane (lateral.md §1): carried in the file, not yet in the model.
+/// A body's bearing in the plane (lateral.md §1).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Lateral {
     pub lateral: bool,
@@ -39,6 +39,11 @@ pub struct Lateral {
     pub k_y: Option<f64>,
     pub c_x: Option<f64>,
     pub c_y: Option<f64>,
+    /// Start displacement \[m\] and velocity \[m/s\] (a static start solves for the first).
+    pub x_start: Option<f64>,
+    pub y_start: Option<f64>,
+    pub vx_start: Option<f64>,
+    pub vy_start: Option<f64>,
 }
 
 /// An angle-locked torque ripple on a body.

@@ -105,6 +105,10 @@ macro_rules! body_of {
                 k_y: e.k_y,
                 c_x: e.c_x,
                 c_y: e.c_y,
+                x_start: e.x_start,
+                y_start: e.y_start,
+                vx_start: e.vx_start,
+                vy_start: e.vy_start,
             },
             name,
         }

@@ -60,6 +60,10 @@ macro_rules! keys {
             pub k_y: Option<f64>,
             pub c_x: Option<f64>,
             pub c_y: Option<f64>,
+            pub x_start: Option<f64>,
+            pub y_start: Option<f64>,
+            pub vx_start: Option<f64>,
+            pub vy_start: Option<f64>,
         });
     };
     (@acc $meta:tt $name:ident [orbit $(, $rest:ident)*] { $($acc:tt)* }) => {

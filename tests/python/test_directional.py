@@ -259,3 +259,34 @@ paper = { zA_nominal = 20, zB_nominal = 30, rA = 0.2, alpha_factor = 2.8 }
     want = jt[np.ix_(order, order)]
     assert np.allclose(gb_coord, want, rtol=1e-12, atol=1e-12 * np.max(np.abs(want))), \
         (gb_coord, want)
+
+
+def test_modes_of_a_pinion_on_its_bearing(train_fmu_path):
+    """tools/modes.py with a lateral body (lateral.md section 5): the pair of
+    test_modes_of_a_pair_and_a_chain with the pinion on a bearing (k_x, k_y), lumped mesh k.
+
+    With q the pinion's (x, y) the forward penetration is rAb theta_A - rBb theta_B + n . q (the
+    sense of each term changes no frequency: only their squares enter), n = (sin a_w, -cos a_w)
+    for O_B on the x axis, so K = k g g^T + diag(0, 0, k_x, k_y) with g = (rAb, -rBb, n_x, n_y)
+    over M = diag(J_A, J_B, m, m): a rigid rotation and three modes. The Jacobian is exact to
+    1e-8 for a linear law, so are the frequencies to 1e-7. The modes mix rotation and
+    translation: the pinion is the only central member that moves sideways."""
+    kx, ky, m = 2e8, 5e7, 3.0
+    sv = dict(two_body(), **{"body[1].lateral": True, "body[1].m": m, "body[1].k_x": kx,
+                             "body[1].k_y": ky})
+    lin = MODES.linearize(train_fmu_path, sv)
+    ms = MODES.modes(lin, sv)
+    md = fmpy.read_model_description(train_fmu_path)
+    res = fmpy.simulate_fmu(train_fmu_path, model_description=md, start_values=sv, stop_time=1e-6,
+                            output_interval=1e-6, output=["mesh[1].rAb", "mesh[1].rBb",
+                                                          "mesh[1].alpha_w"])
+    ra, rb, aw = (float(res[n][0]) for n in ("mesh[1].rAb", "mesh[1].rBb", "mesh[1].alpha_w"))
+    g = np.array([ra, -rb, math.sin(aw), -math.cos(aw)])
+    stiff = K * np.outer(g, g) + np.diag([0.0, 0.0, kx, ky])
+    w2 = np.sort(np.linalg.eigvals(np.linalg.solve(np.diag([0.4, 2.0, m, m]), stiff)).real)
+    want = [math.sqrt(max(x, 0.0)) / (2 * math.pi) for x in w2]
+    fs = [md_["f"] for md_ in ms]
+    assert len(fs) == 4 and abs(fs[0]) < 1e-6 * want[-1], fs
+    for f, w in zip(fs[1:], want[1:]):
+        assert abs(f - w) <= 1e-7 * w, (fs, want)
+    assert {md_["kind"] for md_ in ms[1:]} == {"mixed"}, [md_["kind"] for md_ in ms]

@@ -19,7 +19,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 import scene_to_ssp as X  # noqa: E402
 
-SCENES = ["two-stage", "planetary-simple"]
+SCENES = ["two-stage", "planetary-simple", "lateral-pair"]
 
 
 def package(path, out_dir):
@@ -58,8 +58,12 @@ def test_the_gearbox_fmu_validates_and_declares_only_its_elements(name, gearbox_
     g = X.load_scene(str(ROOT / "scenes" / "train" / "gearbox" / f"{name}.toml"))
     nb = g["start_values"]["n_bodies"]
     nm = g["start_values"]["n_meshes"]
-    # Model Exchange: exactly this gearbox's states and event indicators.
-    assert len(md.derivatives) == 2 + 2 * nb
+    lateral = sum(bool(g["start_values"].get(f"body[{i}].lateral", False)) for i in range(1, nb + 1))
+    # Model Exchange: exactly this gearbox's states (a rotation per body, two translations per
+    # lateral body, each with its rate) and event indicators.
+    assert len(md.derivatives) == 2 + 2 * (nb + 2 * lateral)
+    # (NAME.dx, NAME.dy: NAME.x is an inline gear's profile shift.)
+    assert sum(n.endswith((".dx", ".dy")) for n in outputs(md)) == 2 * lateral
     assert md.numberOfEventIndicators == 32 * nm
     assert sum(n.endswith(".w") for n in outputs(md)) == nb
     assert sum(n.endswith(".dte") for n in outputs(md)) == nm
@@ -86,6 +90,8 @@ def test_the_gearbox_fmu_runs_as_spur_gear_train(name, gearbox_fmus, train_fmu_p
     for suffix, kind in ((".w", "body"), (".theta", "body"), (".dte", "mesh"), (".F_fwd", "mesh")):
         mine = [n for n in own if n.endswith(suffix)]
         pairs += [(n, f"{kind}[{i + 1}]{suffix}") for i, n in enumerate(mine)]
+    bodies = [n[:-2] for n in own if n.endswith(".w")]
+    pairs += [(n, f"body[{bodies.index(n[:-3]) + 1}].{n[-1]}") for n in own if n.endswith((".dx", ".dy"))]
     pairs.append(("housing.tau", "housing.tau"))
     # Co-Simulation: the FMU's own integrator on the same model and values, to rounding.
     # Model Exchange: FMPy's CVode integrates 2 + 2 n_bodies states here and 34 there (the

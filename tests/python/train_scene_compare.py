@@ -53,6 +53,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import scene_compare as S  # noqa: E402  (also puts tests/ on sys.path for reference_model)
 
+from reference_model import lateral_ref as LR  # noqa: E402
 from reference_model import train_ref as T  # noqa: E402
 
 ROOT = S.ROOT
@@ -111,7 +112,8 @@ def build_train_fmu():
 
 def counts(scene):
     """n_bodies, n_shafts, n_meshes of a scene (its start values over the FMU's defaults)."""
-    p = T.make_train_params(scene.get("start_values", {}))
+    # The lateral bodies' parameters are lateral_ref's, not train_ref's.
+    p = T.make_train_params(LR.split_start_values(scene.get("start_values", {}))[0])
     return p["n_bodies"], p["n_shafts"], p["n_meshes"]
 
 

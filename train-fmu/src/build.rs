@@ -4,7 +4,8 @@
 use crate::variables::{Inputs, Params, Var, VarInfo, VARIABLES};
 use gear_model::model::mesh::Coefficients;
 use gear_model::model::train::{
-    Body, MeshPlace, Planet, Ripple, Shaft, TrainLoads, TrainSpec, HOUSING, MAX_BODIES, MAX_MESHES,
+    Body, Lateral, MeshPlace, Planet, Ripple, Shaft, TrainLoads, TrainSpec, HOUSING, MAX_BODIES,
+    MAX_MESHES,
 };
 use gear_model::variables as single;
 
@@ -15,6 +16,10 @@ pub fn var(name: &str) -> Var {
 
 fn real(p: &Params, name: &str) -> f64 {
     p.get_real(var(name)).expect("a Real parameter")
+}
+
+fn boolean(p: &Params, name: &str) -> bool {
+    p.get_boolean(var(name)).expect("a Boolean parameter")
 }
 
 fn int(p: &Params, name: &str) -> i32 {
@@ -170,7 +175,21 @@ pub fn spec(p: &Params, inputs: &Inputs) -> Result<TrainSpec, String> {
         } else {
             real(p, &format!("body[{i}].w_start"))
         };
+        let pair = |x: &str, y: &str| {
+            [
+                real(p, &format!("body[{i}].{x}")),
+                real(p, &format!("body[{i}].{y}")),
+            ]
+        };
+        let lateral = boolean(p, &format!("body[{i}].lateral")).then(|| Lateral {
+            m: real(p, &format!("body[{i}].m")),
+            k: pair("k_x", "k_y"),
+            c: pair("c_x", "c_y"),
+            q_start: pair("x_start", "y_start"),
+            v_start: pair("vx_start", "vy_start"),
+        });
         bodies.push(Body {
+            lateral,
             planet: planets[i - 1],
             j: real(p, &format!("body[{i}].J")),
             c: real(p, &format!("body[{i}].c")),

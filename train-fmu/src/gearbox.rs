@@ -74,25 +74,32 @@ pub fn start_values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
     Ok(v)
 }
 
-/// What the file may say but SpurGearTrain cannot do yet: refused, not ignored.
+/// A lateral body's keys (lateral.md §1) and their values in the file.
+fn lateral_keys(l: &gearbox::Lateral) -> [(&'static str, Option<f64>); 8] {
+    [
+        ("k_x", l.k_x),
+        ("k_y", l.k_y),
+        ("c_x", l.c_x),
+        ("c_y", l.c_y),
+        ("x_start", l.x_start),
+        ("y_start", l.y_start),
+        ("vx_start", l.vx_start),
+        ("vy_start", l.vy_start),
+    ]
+}
+
+/// A lateral body's keys on a body that is not lateral: refused, not ignored.
 fn unsupported(g: &Gearbox) -> Result<(), String> {
-    let not_yet = |kind: &str, name: &str, key: &str, what: &str| {
-        Err(g.at(
-            kind,
-            name,
-            key,
-            &format!("{what} is not available in SpurGearTrain yet"),
-        ))
-    };
     for b in &g.bodies {
         let l = &b.lateral;
-        if l.lateral || [l.k_x, l.k_y, l.c_x, l.c_y].iter().any(Option::is_some) {
-            return not_yet(
+        let keys = lateral_keys(l);
+        if let (false, Some((key, _))) = (l.lateral, keys.iter().find(|(_, x)| x.is_some())) {
+            return Err(g.at(
                 "body",
                 &b.name,
-                "lateral",
-                "a lateral body on bearings (lateral.md)",
-            );
+                key,
+                &format!("{key} is a lateral body's key (lateral.md section 1): set lateral = true, or leave it out"),
+            ));
         }
     }
     Ok(())
@@ -136,6 +143,15 @@ pub fn values(g: &Gearbox) -> Result<Vec<(String, Start)>, String> {
         }
         if let Some(a) = b.angle_start {
             put("body[1].angle_start".into(), real(a));
+        }
+        let l = &b.lateral;
+        if l.lateral {
+            put(at("lateral"), Start::Boolean(true));
+            for (k, x) in lateral_keys(l) {
+                if let Some(x) = x {
+                    put(at(k), real(x));
+                }
+            }
         }
         if let Some(o) = &b.orbit {
             put(at("carrier"), Start::Integer(o.carrier as i32 + 1));

@@ -200,21 +200,36 @@ pub struct GearboxVar {
 }
 
 /// The outputs a gearbox FMU keeps as outputs (gearbox-file.md §2), by element.
-const BODY_OUTPUTS: [&str; 3] = ["theta", "w", "tau_drive"];
+const BODY_OUTPUTS: [&str; 5] = ["theta", "w", "tau_drive", "x", "y"];
 const MESH_OUTPUTS: [&str; 5] = ["dte", "F_fwd", "F_bwd", "n_fwd", "n_bwd"];
 const SHAFT_OUTPUTS: [&str; 1] = ["tau"];
 const WHOLE_OUTPUTS: [&str; 2] = ["housing.tau", "energy_residual"];
 
 /// What the file fixes: not variables of the gearbox FMU.
-const STRUCTURE: [&str; 11] = [
+const STRUCTURE: [&str; 12] = [
     "n_bodies", "n_shafts", "n_meshes", "carrier", "drive", "a", "b", "A", "B", "geometry",
-    "internal",
+    "internal", "lateral",
 ];
 /// A speed-driven body's own variables, and what it does not use.
 const SPEED_ONLY: [&str; 2] = ["w_in", "tau_drive"];
 const TORQUE_ONLY: [&str; 1] = ["w_start"];
 /// A planet's own body parameters.
-const PLANET_ONLY: [&str; 4] = ["orbit_angle", "m", "pin_error_r", "pin_error_t"];
+const PLANET_ONLY: [&str; 3] = ["orbit_angle", "pin_error_r", "pin_error_t"];
+/// A lateral body's own variables (lateral.md §1, §6).
+const LATERAL_ONLY: [&str; 12] = [
+    "k_x", "k_y", "c_x", "c_y", "x_start", "y_start", "vx_start", "vy_start", "x", "y", "vx", "vy",
+];
+
+/// Whether body i's centre moves in the plane: it is lateral, or a planet of a lateral carrier.
+fn moves(g: &Gearbox, i: usize) -> bool {
+    let b = &g.bodies[i];
+    b.lateral.lateral || b.orbit.is_some_and(|o| g.bodies[o.carrier].lateral.lateral)
+}
+
+/// The train's coordinates: a rotation per body, two translations per lateral body.
+fn n_coordinates(g: &Gearbox) -> usize {
+    g.bodies.len() + 2 * g.bodies.iter().filter(|b| b.lateral.lateral).count()
+}
 
 /// The coordinates that are speed-driven bodies' angles: the first ones, one per driven body
 /// (the train chooses a driven body's angle as a coordinate before any other).
@@ -226,7 +241,7 @@ pub fn driven_coordinates(g: &Gearbox) -> usize {
 /// each coordinate's value and rate, except a speed-driven coordinate's rate.
 pub fn state_indices(g: &Gearbox) -> Vec<usize> {
     let driven_rate = |i: usize| i >= 2 && (i - 2) % 2 == 1 && (i - 2) / 2 < driven_coordinates(g);
-    (0..2 + 2 * g.bodies.len())
+    (0..2 + 2 * n_coordinates(g))
         .filter(|&i| !driven_rate(i))
         .collect()
 }
@@ -262,12 +277,12 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
             // drive's rate is its input, not a state: its derivative is left out.
             _ if info.name.starts_with("der(coordinate[") => {
                 let inner = &info.name[4..info.name.len() - 1];
-                if matches!(element(inner), Some((_, k, f)) if k <= g.bodies.len() && !(f == "rate" && k <= driven_coordinates(g)))
+                if matches!(element(inner), Some((_, k, f)) if k <= n_coordinates(g) && !(f == "rate" && k <= driven_coordinates(g)))
                 {
                     coordinates.push(v(info.name.into(), false))
                 }
             }
-            Some(("coordinate", k, _)) if k <= g.bodies.len() => {
+            Some(("coordinate", k, _)) if k <= n_coordinates(g) => {
                 coordinates.push(v(info.name.into(), false))
             }
             Some(("body", i, f)) if i <= g.bodies.len() => {
@@ -277,9 +292,17 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
                     || (SPEED_ONLY.contains(&f) && !speed)
                     || (TORQUE_ONLY.contains(&f) && speed)
                     || (PLANET_ONLY.contains(&f) && b.orbit.is_none())
+                    || (LATERAL_ONLY.contains(&f) && !b.lateral.lateral)
+                    || (f == "m" && b.orbit.is_none() && !b.lateral.lateral)
                     || (f == "angle_start" && i != 1);
                 if !skip {
-                    bodies[i - 1].push(v(format!("{}.{f}", b.name), BODY_OUTPUTS.contains(&f)));
+                    // A lateral body's x and y are its centre's displacement: NAME.x is an
+                    // inline gear's profile shift.
+                    let own = match f {
+                        "x" | "y" => format!("d{f}"),
+                        f => f.to_string(),
+                    };
+                    bodies[i - 1].push(v(format!("{}.{own}", b.name), BODY_OUTPUTS.contains(&f)));
                 }
             }
             Some(("shaft", j, f)) if j <= g.shafts.len() && !STRUCTURE.contains(&f) => {
@@ -288,9 +311,11 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
             }
             Some(("mesh", m, f)) if m <= g.meshes.len() => {
                 let geometry = if paper(m - 1) { 1 } else { 2 };
+                let still = |k: usize| g.body_of_gear(k).is_none_or(|i| !moves(g, i));
                 let skip = STRUCTURE.contains(&f)
                     || is_gear_field(f)
-                    || info.geometry.is_some_and(|x| x != geometry);
+                    || info.geometry.is_some_and(|x| x != geometry)
+                    || (f == "delta_lat" && g.meshes[m - 1].gears.iter().all(|&k| still(k)));
                 if !skip {
                     let name = format!("{}.{f}", g.meshes[m - 1].name);
                     let mut var = v(name, MESH_OUTPUTS.contains(&f));

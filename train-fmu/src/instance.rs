@@ -49,6 +49,10 @@ pub struct Cache {
     per_body: Vec<Vec<(Var, Source)>>,
     per_shaft: Vec<Vec<(Var, Source)>>,
     per_mesh: Vec<Vec<(Var, Source)>>,
+    /// The lateral outputs of each body, then of each mesh: written only for a train with
+    /// lateral bodies.
+    lateral_body: Vec<Vec<(Var, Source)>>,
+    lateral_mesh: Vec<Vec<(Var, Source)>>,
     /// The first output `write_outputs` found NaN or infinite, if any.
     non_finite: std::cell::Cell<Option<(&'static str, f64)>>,
     /// The element counts the outputs were last written for: the others read 0 and need no
@@ -79,6 +83,14 @@ impl Default for Cache {
                 Source::ShaftTau(j) | Source::ShaftTwist(j) => Some(j),
                 _ => None,
             }),
+            lateral_body: group(train::MAX_BODIES, &|s| match s {
+                Source::BodyLateral(i, _) => Some(i),
+                _ => None,
+            }),
+            lateral_mesh: group(train::MAX_MESHES, &|s| match s {
+                Source::MeshDeltaLat(m) => Some(m),
+                _ => None,
+            }),
             per_mesh: group(train::MAX_MESHES, &|s| match s {
                 Source::Mesh(m, sv)
                     if sv.info().causality != single::Causality::CalculatedParameter =>
@@ -96,15 +108,24 @@ impl Default for Cache {
 }
 
 impl Cache {
-    /// The outputs of the elements in use, with their sources.
+    /// The outputs of the elements in use, with their sources; the lateral ones with
+    /// `lateral`.
     fn in_use(
         &self,
         (n_bodies, n_shafts, n_meshes): (usize, usize, usize),
+        lateral: bool,
     ) -> impl Iterator<Item = &(Var, Source)> {
+        let (lb, lm) = if lateral {
+            (n_bodies, n_meshes)
+        } else {
+            (0, 0)
+        };
         self.per_body[..n_bodies]
             .iter()
             .chain(&self.per_shaft[..n_shafts])
             .chain(&self.per_mesh[..n_meshes])
+            .chain(&self.lateral_body[..lb])
+            .chain(&self.lateral_mesh[..lm])
             .flatten()
     }
 }
@@ -118,6 +139,9 @@ enum Source {
     BodyDrive(usize),
     ShaftTau(usize),
     ShaftTwist(usize),
+    /// Body i's lateral displacement or velocity (`Train::lateral_state`'s k-th).
+    BodyLateral(usize, usize),
+    MeshDeltaLat(usize),
     /// Mesh m's output of the single mesh's name.
     Mesh(usize, single::Var),
     Whole,
@@ -139,6 +163,11 @@ fn sources() -> Vec<(Var, Source)> {
                 Some(("body", i, "tau_drive")) => Source::BodyDrive(i - 1),
                 Some(("shaft", j, "tau")) => Source::ShaftTau(j - 1),
                 Some(("shaft", j, "twist")) => Source::ShaftTwist(j - 1),
+                Some(("body", i, q @ ("x" | "y" | "vx" | "vy"))) => {
+                    let k = ["x", "y", "vx", "vy"].iter().position(|&n| n == q);
+                    Source::BodyLateral(i - 1, k.expect("one of the four"))
+                }
+                Some(("mesh", m, "delta_lat")) => Source::MeshDeltaLat(m - 1),
                 Some(("mesh", m, name)) => Source::Mesh(
                     m - 1,
                     single::Var::from_name(name).expect("a mesh's rows are the single mesh's"),
@@ -220,6 +249,7 @@ fn write_outputs(
         per_mesh.push(o);
     }
     let (n_bodies, n_shafts) = (train.spec().bodies.len(), train.spec().shafts.len());
+    let lateral = train.has_lateral();
     let counts = (n_bodies, n_shafts, per_mesh.len());
     if cache.written.get() != Some(counts) {
         *o = Outputs::default();
@@ -233,7 +263,7 @@ fn write_outputs(
         }
         o.set_real(v, x);
     };
-    for &(v, s) in cache.in_use(counts) {
+    for &(v, s) in cache.in_use(counts, lateral) {
         match s {
             Source::BodyTheta(i) if i < n_bodies => put(o, v, b.theta[i]),
             Source::BodyW(i) if i < n_bodies => put(o, v, b.w[i]),
@@ -242,6 +272,9 @@ fn write_outputs(
             }
             Source::ShaftTau(j) if j < n_shafts => put(o, v, train.shaft_torque(j, y)),
             Source::ShaftTwist(j) if j < n_shafts => put(o, v, train.shaft_twist(j, y)),
+            // Without lateral bodies they keep the zeros written with the counts.
+            Source::BodyLateral(i, k) => put(o, v, train.lateral_state(i, y)[k]),
+            Source::MeshDeltaLat(m) => put(o, v, train.delta_lat(m, y)),
             Source::Mesh(m, sv) if m < per_mesh.len() => {
                 if let Some(x) = per_mesh[m].get_real(sv) {
                     put(o, v, x)

@@ -259,7 +259,8 @@ impl ExchangeRig for Train {
                 continue;
             };
             *sj = match i.checked_sub(2).map(|k| (k / 2, k % 2)) {
-                Some((k, 0)) if self.cfg.coords.coords[k].is_body() => 1.0,
+                // (A lateral body's translations come after the rotations' coordinates.)
+                Some((k, 0)) if self.cfg.coords.coords.get(k).is_some_and(|c| c.is_body()) => 1.0,
                 Some((_, 1)) => sj.max(y[i].abs()).max(0.1 * speed),
                 _ => sj.max(y[i].abs()),
             };

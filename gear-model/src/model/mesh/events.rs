@@ -2,7 +2,7 @@
 //! driver, the recorded signs that are the modes, and what happens when one crosses.
 
 use super::forces::{LawOutOfRange, SEGMENT_LIMIT};
-use super::{describe, GearMesh, Kin, DDTE, THETA_A, V_S, W_A};
+use super::{describe, GearMesh, Kin, THETA_A, W_A};
 use crate::model::contact::{self, slot_flank, EventFn, Flank, N_EVENTS, SLOTS, SLOT_NAMES};
 
 /// What happened at an event, for the log.
@@ -169,7 +169,7 @@ impl GearMesh {
             EventFn::PairRel(k) => {
                 let f = slot_flank(k);
                 let e = self.deviation(self.dev.as_deref().expect("active"), k, y, Some(dy));
-                self.coef.chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S] + e[2])
+                self.coef.chi * (self.flank_acceleration(f, dy) + e[2])
             }
             EventFn::ReliefA(k) => slot_flank(k).dir() * travel,
             EventFn::ReliefB(k) => -slot_flank(k).dir() * travel,
@@ -244,7 +244,7 @@ impl GearMesh {
                 }
                 EventFn::Pen(f) => d[f as usize].1,
                 EventFn::Rel(_) if self.rigid() => f64::NAN,
-                EventFn::Rel(f) => self.coef.chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S]),
+                EventFn::Rel(f) => self.coef.chi * self.flank_acceleration(f, dy),
                 EventFn::PairPen(k)
                 | EventFn::PairRel(k)
                 | EventFn::ReliefA(k)
@@ -313,7 +313,7 @@ impl GearMesh {
             put(
                 rel,
                 releasing.then(|| {
-                    let rel_rate = chi * (f.dir() * dy[DDTE] - self.sin_a * dy[V_S]);
+                    let rel_rate = chi * self.flank_acceleration(f, dy);
                     (1.0 + chi * rate, rel_rate)
                 }),
             );

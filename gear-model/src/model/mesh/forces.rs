@@ -31,8 +31,10 @@ pub type SlotForces = [(f64, f64, f64); SLOTS];
 pub struct MeshLoad {
     pub tq_a: f64,
     pub tq_b: f64,
-    /// x component (paper frame) of the force on B; computed only where a slider needs it.
+    /// The force on B in the paper frame; computed only where a slider (x) or moving centres
+    /// (both) need it.
     pub f_bx: f64,
+    pub f_by: f64,
     pub p_loss: f64,
     /// Power of a position-dependent stiffness on the pairs' elastic energy (`ContactLaw::
     /// energy_slope`), booked with the external work.
@@ -45,6 +47,7 @@ impl MeshLoad {
             tq_a: n * self.tq_a,
             tq_b: n * self.tq_b,
             f_bx: n * self.f_bx,
+            f_by: n * self.f_by,
             p_loss: n * self.p_loss,
             p_param: n * self.p_param,
         }
@@ -118,7 +121,11 @@ impl GearMesh {
 
     /// Friction force per unit normal force of a pair, and its sliding velocity (spec §4).
     pub(crate) fn friction(&self, s_a: f64, s_b: f64, w_a: f64, w_b: f64) -> (f64, f64) {
-        let v_s = -w_a * s_a + w_b * s_b;
+        self.friction_at(-w_a * s_a + w_b * s_b)
+    }
+
+    #[inline(always)]
+    fn friction_at(&self, v_s: f64) -> (f64, f64) {
         (self.coef.mu * (v_s / self.coef.v_reg).tanh(), v_s)
     }
 
@@ -127,17 +134,37 @@ impl GearMesh {
     pub fn compliant_load(
         &self,
         y: &Kin,
-        mut pairs: Option<&mut SlotForces>,
+        pairs: Option<&mut SlotForces>,
     ) -> Result<MeshLoad, LawOutOfRange> {
         let law = match &self.law {
             ContactModel::Compliant(law) => law,
-            ContactModel::Lumped(l) => return Ok(self.lumped_load(l, y, pairs)),
+            ContactModel::Lumped(l) if self.moving_centres => {
+                return Ok(self.lumped_load::<true>(l, y, pairs))
+            }
+            ContactModel::Lumped(l) => return Ok(self.lumped_load::<false>(l, y, pairs)),
             ContactModel::Rigid { .. } => unreachable!("a rigid mesh's load is its rig's"),
         };
+        // Fixed centres take a path without the moving centres' terms: tested once per call,
+        // they cost the base scenes nothing (callgrind).
+        if self.moving_centres {
+            self.law_load::<true>(law, y, pairs)
+        } else {
+            self.law_load::<false>(law, y, pairs)
+        }
+    }
+
+    /// `compliant_load` under a compliant law; MOVING: `moving_centres`.
+    #[inline(always)]
+    fn law_load<const MOVING: bool>(
+        &self,
+        law: &Law,
+        y: &Kin,
+        mut pairs: Option<&mut SlotForces>,
+    ) -> Result<MeshLoad, LawOutOfRange> {
         let w_b = self.w_b(y);
         let mut m = MeshLoad::default();
         if let Some(d) = self.dev.as_deref() {
-            self.deviated_pairs(law, d, y, w_b, &mut m, &mut pairs)?;
+            self.deviated_pairs::<MOVING>(law, d, y, w_b, &mut m, &mut pairs)?;
             return Ok(m);
         }
         for f in [Flank::Forward, Flank::Backward] {
@@ -149,9 +176,9 @@ impl GearMesh {
             if gated.peek().is_none() {
                 continue;
             }
-            let (delta, ddelta) = self.flank_delta(f, y);
+            let (delta, ddelta) = self.flank_delta_of::<MOVING>(f, y);
             if law.depends_on_position() {
-                self.position_dependent_pairs(law, f, gated, y, w_b, &mut m, &mut pairs)?;
+                self.position_dependent_pairs::<MOVING>(law, f, gated, y, w_b, &mut m, &mut pairs)?;
                 continue;
             }
             // One evaluation serves every pair of the flank. Johnson's is called directly: through
@@ -166,7 +193,7 @@ impl GearMesh {
                     .map_err(|e| self.out_of_range(f, e))?,
             };
             for k in gated {
-                self.apply_pair(k, forces, (delta, ddelta), y, w_b, &mut m, &mut pairs);
+                self.apply_pair::<MOVING>(k, forces, (delta, ddelta), y, w_b, &mut m, &mut pairs);
             }
         }
         Ok(m)
@@ -177,7 +204,7 @@ impl GearMesh {
     // What the caller holds is passed on, not looked up again in the right-hand side.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
-    fn position_dependent_pairs(
+    fn position_dependent_pairs<const MOVING: bool>(
         &self,
         law: &Law,
         f: Flank,
@@ -187,7 +214,7 @@ impl GearMesh {
         m: &mut MeshLoad,
         pairs: &mut Option<&mut SlotForces>,
     ) -> Result<(), LawOutOfRange> {
-        let (delta, ddelta) = self.flank_delta(f, y);
+        let (delta, ddelta) = self.flank_delta_of::<MOVING>(f, y);
         let (mut slots, mut s_a, mut count) = ([0; 2], [0.0; 2], 0);
         for k in gated {
             slots[count] = k;
@@ -203,7 +230,7 @@ impl GearMesh {
         for (&k, &(n, slope)) in slots.iter().zip(&out).take(count) {
             m.p_param += slope * f.dir() * self.geo.r_ab * y[W_A];
             let forces = (n, n * (1.0 + self.coef.chi * ddelta));
-            self.apply_pair(k, forces, (delta, ddelta), y, w_b, m, pairs);
+            self.apply_pair::<MOVING>(k, forces, (delta, ddelta), y, w_b, m, pairs);
         }
         Ok(())
     }
@@ -212,7 +239,7 @@ impl GearMesh {
     /// that the deviations and a position-dependent stiffness do on the pair (booked with the
     /// external work: the force acts along the line of action only).
     #[inline(never)]
-    fn deviated_pairs(
+    fn deviated_pairs<const MOVING: bool>(
         &self,
         law: &Law,
         d: &Deviations,
@@ -223,7 +250,7 @@ impl GearMesh {
     ) -> Result<(), LawOutOfRange> {
         for k in (0..SLOTS).filter(|&k| self.carrying(k)) {
             let f = slot_flank(k);
-            let flank = self.flank_delta(f, y);
+            let flank = self.flank_delta_of::<MOVING>(f, y);
             let e = self.deviation(d, k, y, None);
             let (delta, ddelta) = (flank.0 + e[0], flank.1 + e[1]);
             let s_a = self.s_contact(k, y);
@@ -234,7 +261,7 @@ impl GearMesh {
             if law.depends_on_position() {
                 m.p_param += law.energy_slope(forces.0, s_a) * f.dir() * self.geo.r_ab * y[W_A];
             }
-            self.apply_pair(k, forces, (delta, ddelta), y, w_b, m, pairs);
+            self.apply_pair::<MOVING>(k, forces, (delta, ddelta), y, w_b, m, pairs);
         }
         Ok(())
     }
@@ -242,7 +269,7 @@ impl GearMesh {
     /// Adds pair k's elastic and damped normal force `forces` and its friction to the load.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn apply_pair(
+    fn apply_pair<const MOVING: bool>(
         &self,
         k: usize,
         (n, fn_): (f64, f64),
@@ -265,7 +292,12 @@ impl GearMesh {
         if self.coef.mu > 0.0 {
             let s_a = self.s_contact(k, y);
             let s_b = g.s_b_of(s_a, delta);
-            let (mu_eff, v_s) = self.friction(s_a, s_b, y[W_A], w_b);
+            let v_s = -y[W_A] * s_a + w_b * s_b;
+            let (mu_eff, v_s) = if MOVING {
+                self.friction_at(v_s + self.centre_slip(f, y))
+            } else {
+                self.friction_at(v_s)
+            };
             ft = mu_eff * fn_;
             m.tq_a += ft * s_a;
             m.tq_b -= ft * s_b;
@@ -273,6 +305,10 @@ impl GearMesh {
         }
         if self.slider {
             m.f_bx += rig::force_on_b(f, fn_, ft, self.sin_a, self.cos_a).0;
+        } else if MOVING {
+            let (fx, fy) = rig::force_on_b(f, fn_, ft, self.sin_a, self.cos_a);
+            m.f_bx += fx;
+            m.f_by += fy;
         }
         if let Some(p) = pairs.as_deref_mut() {
             p[k] = (fn_, ft, n);

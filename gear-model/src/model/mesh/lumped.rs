@@ -38,7 +38,8 @@ impl GearMesh {
 
     /// The load of the flanks in contact: F = k delta + c d(delta)/dt along each one's line of
     /// action, moment arms rAb and rBb, no friction. `pairs` receives each gated pair's share.
-    pub(crate) fn lumped_load(
+    /// MOVING: `moving_centres`, tested once by the caller.
+    pub(crate) fn lumped_load<const MOVING: bool>(
         &self,
         l: &Lumped,
         y: &Kin,
@@ -47,7 +48,7 @@ impl GearMesh {
         let g = &self.geo;
         let mut m = MeshLoad::default();
         for f in self.lumped_flanks() {
-            let (delta, ddelta) = self.flank_delta(f, y);
+            let (delta, ddelta) = self.flank_delta_of::<MOVING>(f, y);
             let k = self.lumped_stiffness(l, f);
             let force = k * delta + l.c * ddelta;
             m.tq_a -= f.dir() * force * g.r_ab;
@@ -55,6 +56,10 @@ impl GearMesh {
             m.p_loss += l.c * ddelta * ddelta;
             if self.slider {
                 m.f_bx += rig::force_on_b(f, force, 0.0, self.sin_a, self.cos_a).0;
+            } else if MOVING {
+                let (fx, fy) = rig::force_on_b(f, force, 0.0, self.sin_a, self.cos_a);
+                m.f_bx += fx;
+                m.f_by += fy;
             }
             if let Some(p) = pairs.as_deref_mut() {
                 let n = self.gated_on(f) as f64;

@@ -28,16 +28,22 @@ use std::sync::Arc;
 
 /// What a mesh reads of its rig, in its own paper frame with forward-positive angles (the
 /// single mesh's interface frame): A's angle since the start, the transmission error, A's
-/// speed, the error's rate, and a displacement of B's bearing along O_A O_B and its speed (the
-/// paper rig's slider; 0 elsewhere).
+/// speed, the error's rate, a displacement of B's bearing along O_A O_B and its speed (the
+/// paper rig's slider; 0 elsewhere), and the centres' relative displacement Dp_A - Dp_B and
+/// its rate in the mesh's own frame (lateral.md §3, a mesh with `moving_centres`; 0
+/// elsewhere).
 pub type Kin = [f64; NK];
-pub const NK: usize = 6;
+pub const NK: usize = 10;
 pub const THETA_A: usize = 0;
 pub const DTE: usize = 1;
 pub const W_A: usize = 2;
 pub const DDTE: usize = 3;
 pub const X_S: usize = 4;
 pub const V_S: usize = 5;
+pub const DX: usize = 6;
+pub const DY: usize = 7;
+pub const VX: usize = 8;
+pub const VY: usize = 9;
 
 /// An event's description, formatted only when someone reads it (`describe_events`):
 /// formatting every pair switch cost 3 % of a base scene (callgrind, high-speed).
@@ -132,6 +138,10 @@ pub struct MeshConfig {
     /// The rig moves B's bearing (the paper rig's slider): the force on B along O_A O_B is
     /// wanted, and a rigid lock on one flank no longer holds the other one open.
     pub slider: bool,
+    /// The rig moves both centres in the plane (a train's lateral bodies, lateral.md §3): the
+    /// penetrations and the sliding speeds gain their relative motion, and the force on B is
+    /// wanted in full.
+    pub moving_centres: bool,
     pub origin: ToothOrigin,
     /// 1 where a pair's gate opens a penetration after s_a (its contact point moves in by
     /// delta), 0 for the lumped mesh, whose pairs are counted at their rigid positions.
@@ -288,6 +298,7 @@ impl GearMesh {
                 present,
                 dev,
                 slider,
+                moving_centres: false,
                 origin,
                 gate_shift,
             }),
@@ -373,15 +384,71 @@ impl GearMesh {
 
     /// Penetration of a flank and its rate: forward delta = dte - x_S sin(alpha_w), backward
     /// delta = -backlash - dte - x_S sin(alpha_w) (moving B away opens both flanks), with the
-    /// backlash at the actual centre distance.
+    /// backlash at the actual centre distance; moving centres add `centre_gain`.
     #[inline(always)]
     pub fn flank_delta(&self, f: Flank, y: &Kin) -> (f64, f64) {
+        if self.moving_centres {
+            self.flank_delta_of::<true>(f, y)
+        } else {
+            self.flank_delta_of::<false>(f, y)
+        }
+    }
+
+    /// `flank_delta` with `moving_centres` known (MOVING) where the caller tested it once.
+    #[inline(always)]
+    pub(crate) fn flank_delta_of<const MOVING: bool>(&self, f: Flank, y: &Kin) -> (f64, f64) {
         let ddte = y[DDTE];
         let (x, vx) = (y[X_S] * self.sin_a, y[V_S] * self.sin_a);
-        match f {
+        let (delta, rate) = match f {
             Flank::Forward => (y[DTE] - x, ddte - vx),
             Flank::Backward => (-self.backlash - y[DTE] - x, -ddte - vx),
+        };
+        if MOVING {
+            let gain = self.centre_gain(f, y[DX], y[DY]);
+            return (delta + gain, rate + self.centre_gain(f, y[VX], y[VY]));
         }
+        (delta, rate)
+    }
+
+    /// (Dp_A - Dp_B) . n of flank f for a relative displacement (dx, dy) in the paper frame:
+    /// n_f = (sin, -cos), n_b = (sin, cos), the directions of the normal force on B.
+    #[inline(always)]
+    pub fn centre_gain(&self, f: Flank, dx: f64, dy: f64) -> f64 {
+        match f {
+            Flank::Forward => dx * self.sin_a - dy * self.cos_a,
+            Flank::Backward => dx * self.sin_a + dy * self.cos_a,
+        }
+    }
+
+    /// The second derivative of flank f's penetration from the rig's accelerations `dy` (the
+    /// time derivative of a `Kin`): what the release events' rates need.
+    #[inline(always)]
+    pub(crate) fn flank_acceleration(&self, f: Flank, dy: &Kin) -> f64 {
+        let a = f.dir() * dy[DDTE] - self.sin_a * dy[V_S];
+        if self.moving_centres {
+            return a + self.centre_gain(f, dy[VX], dy[VY]);
+        }
+        a
+    }
+
+    /// The centres' relative speed along flank f's tangent (forward (cos, sin), backward
+    /// (-cos, sin), friction's direction on B): A's centre relative to B's, which adds to the
+    /// sliding speed A's surface has relative to B's.
+    #[inline(always)]
+    pub(crate) fn centre_slip(&self, f: Flank, y: &Kin) -> f64 {
+        if !self.moving_centres {
+            return 0.0;
+        }
+        match f {
+            Flank::Forward => y[VX] * self.cos_a + y[VY] * self.sin_a,
+            Flank::Backward => -y[VX] * self.cos_a + y[VY] * self.sin_a,
+        }
+    }
+
+    /// The mesh with its centres moving in the plane (`moving_centres`).
+    pub fn with_moving_centres(mut self) -> GearMesh {
+        Arc::make_mut(&mut self.cfg).moving_centres = true;
+        self
     }
 
     /// Speed of wheel B, from w_A and the mesh velocity.

@@ -46,7 +46,10 @@ pub const CONTROLLED: [usize; N_CONTROLLED] = [THETA_A, DTE, W_A, DDTE, X_S, V_S
 /// The mesh's coordinates in the rig's state.
 #[inline(always)]
 pub fn kin(y: &State) -> Kin {
-    [y[THETA_A], y[DTE], y[W_A], y[DDTE], y[X_S], y[V_S]]
+    // The centres do not move in the plane (DX..VY).
+    [
+        y[THETA_A], y[DTE], y[W_A], y[DDTE], y[X_S], y[V_S], 0.0, 0.0, 0.0, 0.0,
+    ]
 }
 
 /// The tunable parameters and the inputs: what a master may change between steps.

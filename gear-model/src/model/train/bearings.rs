@@ -1,7 +1,8 @@
-//! The bearings' forces (lateral.md §6) of a torsional train: every body's centre is held where
+//! The bearings' forces (lateral.md §6). A body that is not lateral is held where
 //! `planetary.md` §3 puts it, so its bearing's force is what holds it there against the mesh
-//! forces (and, for a planet, what moves it on its orbit). The housing takes the bearings'
-//! reactions and the forces on its own gears.
+//! forces (and, for a planet, what moves it on its orbit); a lateral body's is its bearing's
+//! spring and damper. The housing takes the bearings' reactions and the forces on its own
+//! gears.
 //!
 //! They are outputs after every communication step: fixed-size arrays, and each mesh frame's
 //! turn computed once (a carrier's frame turns with it), so that a train that never reads them
@@ -83,7 +84,13 @@ impl Train {
                 on[l.a][k] -= f[k];
             }
         }
-        let heavy = |body: &Body| body.planet.is_some_and(|pl| pl.m != 0.0);
+        let heavy =
+            |body: &Body| body.planet.is_some_and(|pl| pl.m != 0.0) && body.lateral.is_none();
+        // A lateral body's bearing force is its spring-damper's.
+        let mut lateral = [None; MAX_BODIES];
+        for (i, f) in self.lateral_bearing_forces(y) {
+            lateral[i] = Some(f);
+        }
         let acc = if c.spec.bodies.iter().any(heavy) {
             let mut dy = State::zeros();
             self.rhs(y, &mut dy)?;
@@ -100,6 +107,17 @@ impl Train {
         for (i, body) in c.spec.bodies.iter().enumerate() {
             let Some(pl) = body.planet else { continue };
             let k = pl.carrier;
+            if let Some(f) = lateral[i] {
+                // From the pin's radial and tangential axes to the carrier's, then the housing's.
+                let r = c.pins[i];
+                let len = r[0].hypot(r[1]);
+                let pin = rotate(rotate(f, (r[1] / len, r[0] / len)), turns[k]);
+                for d in 0..2 {
+                    on_carrier[k][d] -= pin[d];
+                }
+                out.body[i] = f;
+                continue;
+            }
             let (w, alpha) = (st.sense[k] * b.w[k], st.sense[k] * acc[k]);
             // a = Rot(psi) (-w^2 r + alpha J r), J a quarter turn counter-clockwise.
             let r = c.pins[i];
@@ -123,10 +141,10 @@ impl Train {
             if body.planet.is_some() {
                 continue;
             }
-            let f = [
+            let f = lateral[i].unwrap_or([
                 -(on[i][0] + on_carrier[i][0]),
                 -(on[i][1] + on_carrier[i][1]),
-            ];
+            ]);
             out.body[i] = f;
             out.housing[0] -= f[0];
             out.housing[1] -= f[1];

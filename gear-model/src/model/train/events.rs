@@ -54,9 +54,16 @@ impl Train {
         let b = self.bodies_in::<N>(y);
         let db = self.bodies_in::<N>(dy);
         let start = &self.cfg.event_start;
+        let lateral = self.cfg.lateral.is_some();
         for (m, mesh) in self.meshes.iter().enumerate() {
             let r = start[m]..start[m + 1];
-            let (k, dk) = (self.kin(m, y, &b), self.kin(m, dy, &db));
+            let (k, dk) = match lateral {
+                true => (self.kin(m, y, &b), self.kin_rate(m, (y, &b), (dy, &db))),
+                false => (
+                    self.kin_of::<N, false>(m, y, &b),
+                    self.kin_of::<N, false>(m, dy, &db),
+                ),
+            };
             mesh.event_margins_and_rates(&k, &dk, &mut margins[r.clone()], &mut rates[r]);
         }
     }

@@ -12,6 +12,7 @@
 pub mod bearings;
 pub mod damping;
 pub mod kinematics;
+mod lateral;
 pub mod placement;
 pub mod statics;
 pub mod topology;
@@ -27,12 +28,13 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 pub use topology::{
-    body_name, Body, Edge, MeshPlace, Planet, Ripple, Shaft, Structure, TrainSpec, HOUSING,
-    MAX_BODIES, MAX_MESHES, MAX_SHAFTS,
+    body_name, Body, Edge, Lateral, MeshPlace, Planet, Ripple, Shaft, Structure, TrainSpec,
+    HOUSING, MAX_BODIES, MAX_COORDS, MAX_MESHES, MAX_SHAFTS,
 };
 
-/// The quadratures, then a coordinate and its rate per body.
-pub const NY: usize = 2 + 2 * MAX_BODIES;
+/// The quadratures, then each coordinate and its rate: the rotations, then the lateral bodies'
+/// translations.
+pub const NY: usize = 2 + 2 * MAX_COORDS;
 pub type State = crate::driver::wide::Wide<NY>;
 pub const W_EXT: usize = 0;
 pub const W_LOSS: usize = 1;
@@ -42,7 +44,7 @@ pub const W_LOSS: usize = 1;
 pub const N_MARGINS: usize = MAX_MESHES * N_EVENTS;
 
 /// The states a Model Exchange master integrates: the state itself, for the full capacity
-/// (coordinates not in use read 0).
+/// (coordinates not in use read 0). A gearbox FMU declares those of its train.
 pub const N_MASTER_STATES: usize = NY;
 
 /// Coordinate k's place in the state (its rate follows it).
@@ -108,6 +110,8 @@ pub struct TrainConfig {
     event_start: Vec<usize>,
     /// The speed-driven bodies.
     driven: Vec<usize>,
+    /// The lateral bodies, if any (lateral.md).
+    lateral: Option<lateral::LateralConfig>,
 }
 
 /// The slots of the full capacity's bodies: one per body and the housing's.
@@ -194,6 +198,7 @@ impl Default for TrainConfig {
             inv_j: vec![],
             event_start: vec![0],
             driven: vec![],
+            lateral: None,
             housing: 0,
             shaft_ends: vec![],
         }
@@ -275,13 +280,14 @@ impl Train {
             })
             .collect();
         let mut j_eff: Vec<f64> = spec.bodies.iter().map(|b| b.j).collect();
+        // A lateral planet's mass moves on its own coordinates, not with its carrier.
         for (i, b) in spec.bodies.iter().enumerate() {
-            if let Some(pl) = b.planet {
+            if let (Some(pl), None) = (b.planet, b.lateral) {
                 j_eff[pl.carrier] += pl.m * lay.orbit_radius[i] * lay.orbit_radius[i];
             }
         }
         let inv_j = j_eff.iter().map(|j| 1.0 / j).collect();
-        let pins = (0..n)
+        let pins: Vec<[f64; 2]> = (0..n)
             .map(|i| match spec.bodies[i].planet {
                 Some(pl) => {
                     let (r, t) = (lay.orbit_radius[i] + pl.pin_error_r, pl.pin_error_t);
@@ -310,19 +316,40 @@ impl Train {
             .collect();
         let driven = (0..n).filter(|&i| spec.bodies[i].speed_driven).collect();
         let w_in = spec.bodies.iter().map(|b| b.w_start).collect();
+        let frame_turns: Vec<_> = lay
+            .frames
+            .iter()
+            .zip(&lay.geo)
+            .map(|(f, g)| bearings::frame_turn(f, g.internal))
+            .collect();
+        let lateral = lateral::LateralConfig::new(
+            &spec,
+            &st,
+            &lay.frames,
+            &frame_turns,
+            &lay.geo,
+            &pins,
+            coords.coords.len(),
+        )?;
+        if let Some(lat) = &lateral {
+            meshes = meshes
+                .into_iter()
+                .enumerate()
+                .map(|(m, mesh)| match lat.moves(m) {
+                    true => mesh.with_moving_centres(),
+                    false => mesh,
+                })
+                .collect();
+        }
         let cfg = TrainConfig {
             driven,
+            lateral,
             spec,
             structure: st,
             coords,
             psi_start: start.psi,
             orbit_radius: lay.orbit_radius,
-            frame_turns: lay
-                .frames
-                .iter()
-                .zip(&lay.geo)
-                .map(|(f, g)| bearings::frame_turn(f, g.internal))
-                .collect(),
+            frame_turns,
             frames: lay.frames,
             pins,
             links,
@@ -354,6 +381,13 @@ impl Train {
         for k in 0..n {
             y[coord_index(k)] = c.coords.offset[k];
             y[coord_index(k) + 1] = c.coords.rows[k].dot(&w);
+        }
+        for lb in c.lateral.iter().flat_map(|lat| &lat.bodies) {
+            let l = c.spec.bodies[lb.body].lateral.expect("a lateral body");
+            for d in 0..2 {
+                y[lb.at + 2 * d] = l.q_start[d];
+                y[lb.at + 2 * d + 1] = l.v_start[d];
+            }
         }
         let b = train.bodies(&y);
         for m in 0..n_meshes {
@@ -430,19 +464,58 @@ impl Train {
     }
 
     /// Mesh m's coordinates: A's angle and speed relative to the mesh's carrier, its dte and
-    /// rate (no slider in a train).
-    #[inline]
+    /// rate (no slider in a train), and its centres' motion if they move.
+    #[inline(always)]
     fn kin<const N: usize>(&self, m: usize, y: &State, b: &Bodies<N>) -> Kin {
+        self.kin_of::<N, true>(m, y, b)
+    }
+
+    /// `kin`, where LAT = false knows that no mesh's centres move (a train without lateral
+    /// bodies: the right-hand side's common path).
+    #[inline(always)]
+    fn kin_of<const N: usize, const LAT: bool>(&self, m: usize, y: &State, b: &Bodies<N>) -> Kin {
         let l = &self.cfg.links[m];
         let (q, dq) = self.dte_and_rate(m, y);
-        [
+        let mut k = [
             b.theta[l.a] - l.rel_a * b.theta[l.carrier],
             q,
             b.w[l.a] - l.rel_a * b.w[l.carrier],
             dq,
             0.0,
             0.0,
-        ]
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+        ];
+        if LAT && self.meshes[m].moving_centres {
+            self.put_centres(m, y, b, &mut k);
+        }
+        k
+    }
+
+    /// Mesh m's centres' motion into its `Kin` (kept out of `kin`, which the base scenes
+    /// inline).
+    #[inline(never)]
+    fn put_centres<const N: usize>(&self, m: usize, y: &State, b: &Bodies<N>, k: &mut Kin) {
+        let [z, v, _] = self.centre_motion(m, y, b, None);
+        [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [z[0], z[1], v[0], v[1]];
+    }
+
+    /// The time derivative of mesh m's `kin` at y, given the state's derivative dy.
+    #[inline]
+    fn kin_rate<const N: usize>(
+        &self,
+        m: usize,
+        (y, b): (&State, &Bodies<N>),
+        (dy, db): (&State, &Bodies<N>),
+    ) -> Kin {
+        let mut k = self.kin(m, dy, db);
+        if self.meshes[m].moving_centres {
+            let [_, v, a] = self.centre_motion(m, y, b, Some((dy, db)));
+            [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [v[0], v[1], a[0], a[1]];
+        }
+        k
     }
 
     /// Shaft j's twist theta_a - theta_b + twist_start and its rate at y.
@@ -492,12 +565,14 @@ impl Train {
 
     /// Every torque on the bodies with the current modes (gear-train.md §5, planetary.md §3):
     /// inputs, drags (a planet's relative to its carrier, which takes the reaction), each
-    /// mesh's torques on its gears and minus their sum on its carrier, the shafts'.
+    /// mesh's torques on its gears and minus their sum on its carrier, the shafts'. `lat`: the
+    /// lateral coordinates' generalized forces, when wanted (`lateral.rs`).
     #[inline]
-    fn torques<const N: usize>(
+    fn torques<const N: usize, const LAT: bool>(
         &self,
         y: &State,
         b: &Bodies<N>,
+        mut lat: Option<&mut [[f64; 2]; MAX_BODIES]>,
     ) -> Result<Torques<N>, LawOutOfRange> {
         let c = &*self.cfg;
         let hs = c.housing;
@@ -521,7 +596,7 @@ impl Train {
         }
         let st = &c.structure;
         for (m, (mesh, l)) in self.meshes.iter().zip(&c.links).enumerate() {
-            let load = mesh.compliant_load(&self.kin(m, y, b), None)?;
+            let load = mesh.compliant_load(&self.kin_of::<N, LAT>(m, y, b), None)?;
             t.on[l.a] += load.tq_a;
             t.on[l.b] += load.tq_b;
             if l.carrier != hs {
@@ -537,6 +612,11 @@ impl Train {
             }
             t.p_ext += load.p_param;
             t.p_loss += load.p_loss;
+            if let (true, Some(q)) = (LAT, lat.as_deref_mut()) {
+                if mesh.moving_centres {
+                    self.book_mesh_force(m, [load.f_bx, load.f_by], y, b, &mut t.on, q);
+                }
+            }
         }
         for (j, sh) in c.spec.shafts.iter().enumerate() {
             let (q, dq) = self.shaft_state(j, y, Some(b));
@@ -553,6 +633,9 @@ impl Train {
             }
             t.p_loss += sh.d * dq * dq;
         }
+        if let (true, Some(q)) = (LAT, lat) {
+            self.book_bearings(y, &mut t.on, q, &mut t.p_loss);
+        }
         Ok(t)
     }
 
@@ -567,7 +650,13 @@ impl Train {
     }
 
     fn housing_torque_in<const N: usize>(&self, y: &State) -> Result<f64, LawOutOfRange> {
-        Ok(self.torques(y, &self.bodies_in::<N>(y))?.housing)
+        let lat = self.cfg.lateral.is_some();
+        let b = self.bodies_in::<N>(y);
+        Ok(match lat {
+            true => self.torques::<N, true>(y, &b, None)?,
+            false => self.torques::<N, false>(y, &b, None)?,
+        }
+        .housing)
     }
 
     /// Right-hand side with the current modes: the bodies' accelerations (the inertias are
@@ -580,7 +669,40 @@ impl Train {
     fn rhs_in<const N: usize>(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
         let c = &*self.cfg;
         let b = self.bodies_in::<N>(y);
-        let t = self.torques(y, &b)?;
+        if c.lateral.is_some() {
+            return self.rhs_lateral(y, &b, dy);
+        }
+        let t = self.torques::<N, false>(y, &b, None)?;
+        self.rhs_from(&t, y, &b, dy);
+        Ok(())
+    }
+
+    /// The same for a train with lateral bodies.
+    #[inline(never)]
+    fn rhs_lateral<const N: usize>(
+        &self,
+        y: &State,
+        b: &Bodies<N>,
+        dy: &mut State,
+    ) -> Result<(), LawOutOfRange> {
+        let mut q = [[0.0; 2]; MAX_BODIES];
+        let t = self.torques::<N, true>(y, b, Some(&mut q))?;
+        let acc = self.rhs_from(&t, y, b, dy);
+        self.lateral_rates(y, b, &acc, &q, dy);
+        Ok(())
+    }
+
+    /// The quadratures' and the rotations' derivatives from the torques; returns the bodies'
+    /// accelerations.
+    #[inline(always)]
+    fn rhs_from<const N: usize>(
+        &self,
+        t: &Torques<N>,
+        y: &State,
+        b: &Bodies<N>,
+        dy: &mut State,
+    ) -> [f64; N] {
+        let c = &*self.cfg;
         let n = c.spec.bodies.len();
         let mut acc = [0.0; N];
         for (a, (tq, inv_j)) in acc.iter_mut().zip(t.on.iter().zip(&c.inv_j)).take(n) {
@@ -599,12 +721,13 @@ impl Train {
             dy[i] = y[i + 1];
             dy[i + 1] = row.dot(&acc);
         }
-        Ok(())
+        acc
     }
 
     /// The number of state components in use (a prefix of `State`).
     pub fn dim(&self) -> usize {
-        2 + 2 * self.cfg.coords.coords.len()
+        let lateral = self.cfg.lateral.as_ref().map_or(0, |l| 2 * l.bodies.len());
+        2 + 2 * (self.cfg.coords.coords.len() + lateral)
     }
 
     pub fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
@@ -639,6 +762,7 @@ impl Train {
             .iter()
             .any(|&i| self.loads.w_in[i] != loads.w_in[i])
         {
+            let before = *y;
             let mut w = b.w;
             for &i in &c.driven {
                 w[i] = loads.w_in[i];
@@ -647,7 +771,7 @@ impl Train {
                 y[coord_index(k) + 1] = row.dot(&w);
             }
             let after = self.bodies(y);
-            y[W_EXT] += self.kinetic_energy(&after) - self.kinetic_energy(&b);
+            y[W_EXT] += self.kinetic_energy(y, &after) - self.kinetic_energy(&before, &b);
             for m in 0..self.meshes.len() {
                 let k = self.kin(m, y, &after);
                 self.meshes[m].rates_jumped(&k);
@@ -663,7 +787,12 @@ impl Train {
     }
 
     fn drive_torque_in<const N: usize>(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
-        Ok(-self.torques(y, &self.bodies_in::<N>(y))?.on[i])
+        let b = self.bodies_in::<N>(y);
+        if self.cfg.lateral.is_none() {
+            return Ok(-self.torques::<N, false>(y, &b, None)?.on[i]);
+        }
+        let mut q = [[0.0; 2]; MAX_BODIES];
+        Ok(-self.torques::<N, true>(y, &b, Some(&mut q))?.on[i])
     }
 
     /// Whether body i's speed is an input.
@@ -677,10 +806,13 @@ impl Train {
         let c = &*self.cfg;
         let b = self.bodies(y);
         let mut sum = 0.0;
+        let mut stiffness = [0.0; MAX_MESHES];
         for (m, mesh) in self.meshes.iter().enumerate() {
             let k = mesh.mesh_stiffness(&self.kin(m, y, &b));
+            stiffness[m] = k;
             sum += k * c.mobility(&kinematics::mesh_row(&c.spec, &c.structure, &mesh.geo, m));
         }
+        sum += self.lateral_trace(&stiffness);
         for (j, sh) in c.spec.shafts.iter().enumerate() {
             sum += sh.k * c.mobility(&kinematics::shaft_row(&c.spec, j));
         }

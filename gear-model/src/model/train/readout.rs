@@ -4,18 +4,24 @@
 use super::*;
 
 impl Train {
-    pub(super) fn kinetic_energy(&self, b: &Bodies) -> f64 {
+    /// The bodies' rotations' kinetic energy (a rigid planet's orbit in its carrier's
+    /// inertia) and the lateral bodies' translations'.
+    pub(super) fn kinetic_energy(&self, y: &State, b: &Bodies) -> f64 {
         let c = &*self.cfg;
-        (0..c.j_eff.len())
+        let turning: f64 = (0..c.j_eff.len())
             .map(|i| 0.5 * c.j_eff[i] * b.w[i] * b.w[i])
-            .sum()
+            .sum();
+        if c.lateral.is_none() {
+            return turning;
+        }
+        turning + self.lateral_energy(y, b).0
     }
 
-    /// Elastic energy of the meshes' carrying pairs and of the shafts.
+    /// Elastic energy of the meshes' carrying pairs, of the shafts and of the bearings.
     pub fn elastic_energy(&self, y: &State) -> Result<f64, LawOutOfRange> {
         let c = &*self.cfg;
         let b = self.bodies(y);
-        let mut e = 0.0;
+        let mut e = self.lateral_energy(y, &b).1;
         for (j, sh) in c.spec.shafts.iter().enumerate() {
             let twist = self.shaft_state(j, y, Some(&b)).0;
             e += 0.5 * sh.k * twist * twist;
@@ -30,7 +36,7 @@ impl Train {
 
     /// (E_kin + E_el + W_loss - W_ext - E_gate, E_kin, E_el).
     pub(super) fn energy_terms(&self, y: &State) -> Result<(f64, f64, f64), LawOutOfRange> {
-        let e_kin = self.kinetic_energy(&self.bodies(y));
+        let e_kin = self.kinetic_energy(y, &self.bodies(y));
         let e_el = self.elastic_energy(y)?;
         Ok((
             e_kin + e_el + y[W_LOSS] - y[W_EXT] - self.e_gate,

@@ -1,12 +1,13 @@
-//! The static start (gearbox-file.md §3): the start deflections of the meshes and twists of
-//! the shafts at which the start loads (torques, drags at the start speeds, friction) are in
-//! balance, so a run starts without a transient. Where the loads do not balance, the train
-//! accelerates as a rigid body and the balance is taken in that accelerating frame: every
-//! mesh's dte and every shaft's twist then has zero second derivative at t = 0.
+//! The static start (gearbox-file.md §3): the start deflections of the meshes, twists of the
+//! shafts and displacements of the lateral bodies at which the start loads (torques, drags at
+//! the start speeds, friction, a carrier's centrifugal loads) are in balance, so a run starts
+//! without a transient. Where the loads do not balance, the train accelerates as a rigid body
+//! and the balance is taken in that accelerating frame: every mesh's dte, every shaft's twist
+//! and every lateral displacement then has zero second derivative at t = 0.
 //!
 //! The unknowns are the coordinates' edges (the meshes that place a body, through their
-//! `dte_start`, and the shafts, through their `twist_start`); the meshes that close loops
-//! follow from them. The equations are the train's own right-hand side, so whatever the
+//! `dte_start`, and the shafts, through their `twist_start`) and the lateral bodies' start
+//! displacements; the meshes that close loops follow from them. The equations are the train's own right-hand side, so whatever the
 //! model carries (the pairs in contact, their positions, tooth structure, friction) is in the
 //! balance. Newton's method on them, with a Jacobian by differences: a handful of train
 //! builds per iteration, once, at initialization.
@@ -73,12 +74,15 @@ impl StartDeflections {
 enum Unknown {
     Mesh(usize),
     Shaft(usize),
+    /// A lateral body's start displacement along x (0) or y (1).
+    Lateral(usize, usize),
 }
 
 fn get(spec: &TrainSpec, u: Unknown) -> f64 {
     match u {
         Unknown::Mesh(m) => spec.meshes[m].dte_start,
         Unknown::Shaft(j) => spec.shafts[j].twist_start,
+        Unknown::Lateral(i, d) => spec.bodies[i].lateral.map_or(0.0, |l| l.q_start[d]),
     }
 }
 
@@ -86,6 +90,11 @@ fn set(spec: &mut TrainSpec, u: Unknown, x: f64) {
     match u {
         Unknown::Mesh(m) => spec.meshes[m].dte_start = x,
         Unknown::Shaft(j) => spec.shafts[j].twist_start = x,
+        Unknown::Lateral(i, d) => {
+            if let Some(l) = spec.bodies[i].lateral.as_mut() {
+                l.q_start[d] = x;
+            }
+        }
     }
 }
 
@@ -93,6 +102,7 @@ fn name(u: Unknown) -> String {
     match u {
         Unknown::Mesh(m) => format!("mesh[{}]", m + 1),
         Unknown::Shaft(j) => format!("shaft[{}]", j + 1),
+        Unknown::Lateral(i, d) => format!("body[{}].{}_start", i + 1, ["x", "y"][d]),
     }
 }
 
@@ -150,6 +160,14 @@ pub fn static_start(spec: TrainSpec, loads: &TrainLoads) -> Result<TrainSpec, Mo
         }
         unknowns.push((k, u));
     }
+    // Each lateral body's displacement, after the rotations (`lateral.rs`).
+    let first = coords.coords.len();
+    let lateral = (0..spec.bodies.len()).filter(|&i| spec.bodies[i].lateral.is_some());
+    for (l, i) in lateral.enumerate() {
+        for d in 0..2 {
+            unknowns.push((first + 2 * l + d, Unknown::Lateral(i, d)));
+        }
+    }
     if unknowns.is_empty() {
         return Ok(spec);
     }
@@ -166,7 +184,7 @@ pub fn static_start(spec: TrainSpec, loads: &TrainLoads) -> Result<TrainSpec, Mo
         .iter()
         .map(|&(_, u)| match u {
             Unknown::Mesh(m) => -0.5 * b.spec.meshes[m].pair.backlash,
-            Unknown::Shaft(_) => 0.0,
+            Unknown::Shaft(_) | Unknown::Lateral(..) => 0.0,
         })
         .collect();
     let r0 = b.residual(&mid)?;
@@ -177,7 +195,7 @@ pub fn static_start(spec: TrainSpec, loads: &TrainLoads) -> Result<TrainSpec, Mo
         .map(|(&(_, u), &r)| match u {
             Unknown::Mesh(_) if r < 0.0 => -1.0,
             Unknown::Mesh(_) => 1.0,
-            Unknown::Shaft(_) => 0.0,
+            Unknown::Shaft(_) | Unknown::Lateral(..) => 0.0,
         })
         .collect();
     for _ in 0..=b.unknowns.len() {
@@ -192,7 +210,7 @@ pub fn static_start(spec: TrainSpec, loads: &TrainLoads) -> Result<TrainSpec, Mo
 }
 
 /// Newton's method from a deflection of DELTA_GUESS on each mesh's `side` (+1 forward, -1
-/// backward; 0, a shaft, starts untwisted).
+/// backward; 0, a shaft or a lateral displacement, starts at 0).
 /// Returns the balance, or the meshes it pinned to the edge of their gap.
 #[allow(clippy::type_complexity)]
 fn newton(

@@ -72,6 +72,25 @@ impl Train {
                 atol[i + 1] = rel_tol;
             }
         }
+        if let Some(lat) = &c.lateral {
+            // A lateral displacement adds to the meshes' penetrations: their finest scale.
+            let finest = |off: usize| {
+                (0..c.coords.coords.len())
+                    .filter(|&k| matches!(c.coords.coords[k], Coord::Edge(Edge::Mesh(_))))
+                    .map(|k| atol[coord_index(k) + off])
+                    .fold(f64::INFINITY, f64::min)
+            };
+            let (x, v) = match (finest(0), finest(1)) {
+                (x, v) if x.is_finite() => (x, v),
+                _ => (rel_tol * 1e-12, rel_tol * 1e-12),
+            };
+            for lb in &lat.bodies {
+                for d in 0..2 {
+                    atol[lb.at + 2 * d] = x;
+                    atol[lb.at + 2 * d + 1] = v;
+                }
+            }
+        }
         atol
     }
 }

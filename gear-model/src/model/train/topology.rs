@@ -9,6 +9,11 @@ use crate::model::pair::Pair;
 pub const MAX_BODIES: usize = 16;
 pub const MAX_SHAFTS: usize = 15;
 pub const MAX_MESHES: usize = 16;
+/// The coordinates a train may have: its rotations (one per body) and two translations per
+/// lateral body (lateral.md §1). The state's capacity: every step zeroes and every
+/// communication step copies it whole, so it stays that of a torsional train of full size
+/// (at three times this, the torsional scenes cost 10-25 % more, docs/lateral.md).
+pub const MAX_COORDS: usize = MAX_BODIES;
 /// The housing (FMI body 0) as an element end: the slot after the bodies in every per-body
 /// array, where angles and speeds stay 0.
 pub const HOUSING: usize = MAX_BODIES;
@@ -28,6 +33,23 @@ pub struct Body {
     /// Its speed is an input (`TrainLoads::w_in`, held over a step) and the drive's torque an
     /// output (gearbox-file.md §3); its start speed is `w_start`.
     pub speed_driven: bool,
+    /// Its centre moves in the plane on its bearing (lateral.md §1); None: held where
+    /// planetary.md §3 puts it.
+    pub lateral: Option<Lateral>,
+}
+
+/// A lateral body's translation (lateral.md §1-§2): x and y in the housing frame, or a
+/// planet's radial zeta and tangential eta at its pin in its carrier's frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lateral {
+    /// Translational mass \[kg\] (a planet's is `Planet::m`, the same parameter).
+    pub m: f64,
+    /// The bearing's stiffness \[N/m\] and damping \[N s/m\] in x and y; 0 stiffness: floating.
+    pub k: [f64; 2],
+    pub c: [f64; 2],
+    /// Start displacement \[m\] and velocity \[m/s\].
+    pub q_start: [f64; 2],
+    pub v_start: [f64; 2],
 }
 
 /// A planet's place on its carrier (planetary.md §3).
@@ -527,6 +549,7 @@ mod tests {
             w_start: 0.0,
             ripple: Ripple::NONE,
             speed_driven: false,
+            lateral: None,
             planet: None,
         }
     }
