@@ -150,6 +150,7 @@ macro_rules! by_slots {
 
 mod events;
 mod readout;
+mod shafts;
 mod tolerance;
 
 /// The train.
@@ -518,51 +519,6 @@ impl Train {
         k
     }
 
-    /// Shaft j's twist theta_a - theta_b + twist_start and its rate at y.
-    fn shaft_state<const N: usize>(
-        &self,
-        j: usize,
-        y: &State,
-        b: Option<&Bodies<N>>,
-    ) -> (f64, f64) {
-        let c = &*self.cfg;
-        match c.coords.shaft[j] {
-            Source::Coord(k) => (y[coord_index(k)], y[coord_index(k) + 1]),
-            _ => {
-                let (a, e) = c.shaft_ends[j];
-                let own;
-                let b = match b {
-                    Some(b) => b,
-                    None => {
-                        own = self.bodies_in::<N>(y);
-                        &own
-                    }
-                };
-                (
-                    b.theta[a] - b.theta[e] + c.spec.shafts[j].twist_start,
-                    b.w[a] - b.w[e],
-                )
-            }
-        }
-    }
-
-    /// Shaft j's transmitted torque at y (gear-train.md §1).
-    pub fn shaft_torque(&self, j: usize, y: &State) -> f64 {
-        let sh = &self.cfg.spec.shafts[j];
-        let (q, dq) = self.shaft_state::<SLOTS>(j, y, None);
-        sh.k * q + sh.d * dq
-    }
-
-    /// Shaft j's twist theta_a - theta_b + twist_start at y.
-    pub fn shaft_twist(&self, j: usize, y: &State) -> f64 {
-        self.shaft_state::<SLOTS>(j, y, None).0
-    }
-
-    /// Shaft j's twist rate w_a - w_b at y.
-    pub fn shaft_twist_rate(&self, j: usize, y: &State) -> f64 {
-        self.shaft_state::<SLOTS>(j, y, None).1
-    }
-
     /// Every torque on the bodies with the current modes (gear-train.md §5, planetary.md §3):
     /// inputs, drags (a planet's relative to its carrier, which takes the reaction), each
     /// mesh's torques on its gears and minus their sum on its carrier, the shafts'. `lat`: the
@@ -637,26 +593,6 @@ impl Train {
             self.book_bearings(y, &mut t.on, q, &mut t.p_loss);
         }
         Ok(t)
-    }
-
-    /// The counter-clockwise torque the meshes and shafts apply to the housing at y.
-    pub fn housing_torque(&self, y: &State) -> Result<f64, LawOutOfRange> {
-        // Read after every communication step: a train that does not touch the housing
-        // evaluates no force law for it.
-        if !self.cfg.structure.uses_housing {
-            return Ok(0.0);
-        }
-        by_slots!(self.housing_torque_in(y))
-    }
-
-    fn housing_torque_in<const N: usize>(&self, y: &State) -> Result<f64, LawOutOfRange> {
-        let lat = self.cfg.lateral.is_some();
-        let b = self.bodies_in::<N>(y);
-        Ok(match lat {
-            true => self.torques::<N, true>(y, &b, None)?,
-            false => self.torques::<N, false>(y, &b, None)?,
-        }
-        .housing)
     }
 
     /// Right-hand side with the current modes: the bodies' accelerations (the inertias are
@@ -778,21 +714,6 @@ impl Train {
             }
         }
         self.loads = loads;
-    }
-
-    /// The torque the drive of speed-driven body i applies at y, forward positive: what
-    /// holds its speed against every other torque on it.
-    pub fn drive_torque(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
-        by_slots!(self.drive_torque_in(i, y))
-    }
-
-    fn drive_torque_in<const N: usize>(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
-        let b = self.bodies_in::<N>(y);
-        if self.cfg.lateral.is_none() {
-            return Ok(-self.torques::<N, false>(y, &b, None)?.on[i]);
-        }
-        let mut q = [[0.0; 2]; MAX_BODIES];
-        Ok(-self.torques::<N, true>(y, &b, Some(&mut q))?.on[i])
     }
 
     /// Whether body i's speed is an input.

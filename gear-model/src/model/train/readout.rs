@@ -1,9 +1,44 @@
-//! What the train reports at a state: energies, each mesh's readout and dte, and the meshes'
-//! statistics over the run.
+//! What the train reports at a state: energies, each mesh's readout and dte, the torques on
+//! the housing and of the speed drives, and the meshes' statistics over the run.
 
 use super::*;
 
 impl Train {
+    /// The counter-clockwise torque the meshes and shafts apply to the housing at y.
+    pub fn housing_torque(&self, y: &State) -> Result<f64, LawOutOfRange> {
+        // Read after every communication step: a train that does not touch the housing
+        // evaluates no force law for it.
+        if !self.cfg.structure.uses_housing {
+            return Ok(0.0);
+        }
+        by_slots!(self.housing_torque_in(y))
+    }
+
+    fn housing_torque_in<const N: usize>(&self, y: &State) -> Result<f64, LawOutOfRange> {
+        let lat = self.cfg.lateral.is_some();
+        let b = self.bodies_in::<N>(y);
+        Ok(match lat {
+            true => self.torques::<N, true>(y, &b, None)?,
+            false => self.torques::<N, false>(y, &b, None)?,
+        }
+        .housing)
+    }
+
+    /// The torque the drive of speed-driven body i applies at y, forward positive: what
+    /// holds its speed against every other torque on it.
+    pub fn drive_torque(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
+        by_slots!(self.drive_torque_in(i, y))
+    }
+
+    fn drive_torque_in<const N: usize>(&self, i: usize, y: &State) -> Result<f64, LawOutOfRange> {
+        let b = self.bodies_in::<N>(y);
+        if self.cfg.lateral.is_none() {
+            return Ok(-self.torques::<N, false>(y, &b, None)?.on[i]);
+        }
+        let mut q = [[0.0; 2]; MAX_BODIES];
+        Ok(-self.torques::<N, true>(y, &b, Some(&mut q))?.on[i])
+    }
+
     /// The bodies' rotations' kinetic energy (a rigid planet's orbit in its carrier's
     /// inertia) and the lateral bodies' translations'.
     pub(super) fn kinetic_energy(&self, y: &State, b: &Bodies) -> f64 {
