@@ -1,5 +1,7 @@
 //! Parts of trains shared by the integration tests of planetary sets (tests/planetary.rs,
 //! tests/bearing_forces.rs, tests/lateral.rs).
+// Each test binary that includes this uses its own subset of it.
+#![allow(dead_code)]
 
 use spur_gear_mesh::model::train::{Body, MeshPlace, Ripple};
 use spur_gear_mesh::table;
