@@ -46,36 +46,64 @@ fn pinion_pair() -> Params {
     })
 }
 
-/// A pinion (body 1) on a bearing of stiffness (k_x, k_y) = (1e8, 2.5e8) N/m meshing with a
-/// wheel on a rigid axis, O_A O_B at 0.7 rad, lumped mesh, balanced torques at rest. The
-/// static state is closed form: the pinion's bearing holds the mesh force -F n_f on it, so
-/// q = -F K^-1 n_f, the gain (Dp_A - Dp_B) . n_f = -F n_f . K^-1 n_f, and the spring's
+/// The pinion case: a pinion (body 1) on a bearing of stiffness (k_x, k_y) = (1e8, 2.5e8) N/m
+/// and mass 3 kg meshing with a wheel on a rigid axis, O_A O_B at 0.7 rad, lumped mesh, 120
+/// N.m balanced at rest: its force F = tau_A / rAb and forward direction n_f.
+struct PinionCase {
+    p: Params,
+    g: Geometry,
+    k: [f64; 2],
+    m: f64,
+    f: f64,
+    n: [f64; 2],
+}
+
+impl PinionCase {
+    fn new() -> PinionCase {
+        let p = pinion_pair();
+        let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
+        let f = 120.0 / g.r_ab;
+        let n = n_forward(g.alpha_w, 0.7, false);
+        PinionCase {
+            p,
+            g,
+            k: [1e8, 2.5e8],
+            m: 3.0,
+            f,
+            n,
+        }
+    }
+
+    /// The train started at the pinion's displacement q and the mesh's dte, and its torques.
+    fn train(&self, q: [f64; 2], dte_start: f64) -> (TrainSpec, Vec<f64>) {
+        let mut pinion = body(0.01);
+        pinion.lateral = Some(Lateral {
+            q_start: q,
+            ..bearing(self.m, self.k, [0.0; 2]).unwrap()
+        });
+        let mut meshes = vec![mesh(0, 1, 0.7, &self.p)];
+        meshes[0].dte_start = dte_start;
+        let spec = TrainSpec {
+            bodies: vec![pinion, body(0.05)],
+            angle_start: 0.0,
+            shafts: vec![],
+            meshes,
+        };
+        (spec, vec![self.f * self.g.r_ab, -self.f * self.g.r_bb])
+    }
+}
+
+/// The pinion case (`PinionCase`). The static state is closed form: the pinion's bearing
+/// holds the mesh force -F n_f on it, so q = -F K^-1 n_f, the gain (Dp_A - Dp_B) . n_f = -F n_f . K^-1 n_f, and the spring's
 /// deflection F / k_lumped is dte plus the gain. Started there, nothing accelerates: the
 /// forces are a few products each, so 1e-12 of F / m (or F r / J) bounds their rounding.
 #[test]
 fn a_pinion_on_its_bearing_at_static_load() {
-    let p = pinion_pair();
-    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
-    let (k, m) = ([1e8, 2.5e8], 3.0);
-    let tau_a = 120.0;
-    let f = tau_a / g.r_ab;
-    let n = n_forward(g.alpha_w, 0.7, false);
+    let c = PinionCase::new();
+    let (g, k, m, f, n) = (&c.g, c.k, c.m, c.f, c.n);
     let q = [-f * n[0] / k[0], -f * n[1] / k[1]];
     let gain = q[0] * n[0] + q[1] * n[1];
-    let mut pinion = body(0.01);
-    pinion.lateral = Some(Lateral {
-        q_start: q,
-        ..bearing(m, k, [0.0; 2]).unwrap()
-    });
-    let mut meshes = vec![mesh(0, 1, 0.7, &p)];
-    meshes[0].dte_start = f / K_LUMPED - gain;
-    let spec = TrainSpec {
-        bodies: vec![pinion, body(0.05)],
-        angle_start: 0.0,
-        shafts: vec![],
-        meshes,
-    };
-    let tau = vec![tau_a, -f * g.r_bb];
+    let (spec, tau) = c.train(q, f / K_LUMPED - gain);
     let sim = TrainSimulation::new(spec, tau, None, 1, 0.0, 1e-10).unwrap();
     let y = sim.state();
     let train = &sim.train;
@@ -368,21 +396,9 @@ fn a_floating_sun_among_three_planets_is_held() {
 /// balances the accelerations to 1e-10 of the elastic terms (statics.rs), so 1e-8 of q.
 #[test]
 fn the_static_start_finds_the_bearings_deflection() {
-    let p = pinion_pair();
-    let g = Geometry::new(&table::pair(&p).unwrap()).unwrap();
-    let (k, m) = ([1e8, 2.5e8], 3.0);
-    let tau_a = 120.0;
-    let f = tau_a / g.r_ab;
-    let n = n_forward(g.alpha_w, 0.7, false);
-    let mut pinion = body(0.01);
-    pinion.lateral = bearing(m, k, [0.0; 2]);
-    let spec = TrainSpec {
-        bodies: vec![pinion, body(0.05)],
-        angle_start: 0.0,
-        shafts: vec![],
-        meshes: vec![mesh(0, 1, 0.7, &p)],
-    };
-    let tau = vec![tau_a, -f * g.r_bb];
+    let c = PinionCase::new();
+    let (k, f, n) = (c.k, c.f, c.n);
+    let (spec, tau) = c.train([0.0; 2], 0.0);
     let sim = TrainSimulation::new(spec.clone(), tau, None, 1, 0.0, 1e-10).unwrap();
     let solved = static_start(spec, &sim.train.loads).unwrap();
     let q = solved.bodies[0].lateral.unwrap().q_start;
