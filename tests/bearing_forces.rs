@@ -15,7 +15,7 @@ use train_parts::{body, mesh, n_forward, pair};
 /// The spec with its static start under the torques tau (at the bodies' start speeds).
 fn balanced(spec: TrainSpec, tau: &[f64]) -> TrainSpec {
     let sim = TrainSimulation::new(spec.clone(), tau.to_vec(), None, 1, 0.0, 1e-10).unwrap();
-    static_start(spec, &sim.train.loads).unwrap()
+    static_start(spec, &sim.train().loads).unwrap()
 }
 
 fn close(a: [f64; 2], b: [f64; 2], tol: f64) -> bool {
@@ -61,7 +61,7 @@ fn at_static_load_each_bearing_holds_its_mesh_forces() {
     let tau = vec![tau1, 0.0, -f2 * g2.r_bb];
     let spec = balanced(spec, &tau);
     let sim = TrainSimulation::new(spec, tau, None, 1, 0.0, 1e-10).unwrap();
-    let bf = sim.train.bearing_forces(&sim.state()).unwrap();
+    let bf = sim.train().bearing_forces(&sim.state()).unwrap();
     let n1 = n_forward(g1.alpha_w, 0.7, false);
     let n2 = n_forward(g2.alpha_w, 2.1, true);
     let tol = 1e-9 * f1;
@@ -129,9 +129,9 @@ fn a_held_sun_among_planets_in_phase_feels_no_force() {
     for k in 1..=40 {
         sim.advance(k as f64 * 2.5e-4, &mut |_, _| {}).unwrap();
         let y = sim.state();
-        let mesh_force = sim.train.mesh_readout(0, &y).unwrap().flank_force[0];
+        let mesh_force = sim.train().mesh_readout(0, &y).unwrap().flank_force[0];
         assert!(mesh_force > 100.0, "the sun carries load: {mesh_force}");
-        let bf = sim.train.bearing_forces(&y).unwrap();
+        let bf = sim.train().bearing_forces(&y).unwrap();
         let tol = 1e-6 * mesh_force;
         for (what, f) in [
             ("sun", bf.body[0]),
@@ -163,9 +163,9 @@ fn a_planets_pin_carries_its_centripetal_force() {
         sim.advance(5e-3, &mut |_, _| {}).unwrap();
         let y = sim.state();
         (
-            sim.train.bearing_forces(&y).unwrap(),
-            sim.train.bodies(&y).w[1],
-            sim.train.cfg.orbit_radius[2],
+            sim.train().bearing_forces(&y).unwrap(),
+            sim.train().bodies(&y).w[1],
+            sim.train().cfg.orbit_radius[2],
         )
     };
     let (heavy, omega, r) = run(0.3);

@@ -5,11 +5,13 @@
 
 mod train_parts;
 
-use spur_gear_mesh::driver::train_simulation::TrainSimulation;
+use spur_gear_mesh::driver::train_simulation::{Compact, TrainRun, TrainSimulation};
 use spur_gear_mesh::driver::Vector;
 use spur_gear_mesh::model::geometry::Geometry;
 use spur_gear_mesh::model::train::statics::static_start;
-use spur_gear_mesh::model::train::{Body, Lateral, Planet, State, TrainSpec, HOUSING};
+use spur_gear_mesh::model::train::{
+    Body, Lateral, Planet, State, Train, TrainSpec, HOUSING, NY_COMPACT,
+};
 use spur_gear_mesh::table;
 use spur_gear_mesh::variables::Params;
 use std::f64::consts::PI;
@@ -106,7 +108,7 @@ fn a_pinion_on_its_bearing_at_static_load() {
     let (spec, tau) = c.train(q, f / K_LUMPED - gain);
     let sim = TrainSimulation::new(spec, tau, None, 1, 0.0, 1e-10).unwrap();
     let y = sim.state();
-    let train = &sim.train;
+    let train = &sim.train();
     assert_eq!(train.lateral_state(0, &y), [q[0], q[1], 0.0, 0.0]);
     assert_eq!(train.lateral_state(1, &y), [0.0; 4]);
     let rel = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
@@ -188,14 +190,14 @@ fn a_planet_on_its_pin_turns_with_coriolis_and_centrifugal_terms() {
     let (omega, k, m): (f64, f64, f64) = (400.0, 2e6, 0.3);
     let w = (k / m).sqrt();
     let r = spinning_planet(omega, k, m, [0.0; 2], [0.0; 2])
-        .train
+        .train()
         .cfg
         .orbit_radius[2];
     let u_s = omega * omega * r / (w * w - omega * omega);
     let (a, da) = ([2e-6, -1e-6], [3e-3, 1e-3]);
     let mut sim = spinning_planet(omega, k, m, [u_s + a[0], a[1]], da);
     // The carrier's counter-clockwise speed.
-    let omega = sim.train.cfg.structure.sense[1] * omega;
+    let omega = sim.train().cfg.structure.sense[1] * omega;
     // a' + Omega S a, S the quarter turn.
     let b = [(da[0] - omega * a[1]) / w, (da[1] + omega * a[0]) / w];
     let amplitude = a[0].hypot(a[1]) + b[0].hypot(b[1]);
@@ -206,7 +208,7 @@ fn a_planet_on_its_pin_turns_with_coriolis_and_centrifugal_terms() {
         let z = [0, 1].map(|d| a[d] * (w * t).cos() + b[d] * (w * t).sin());
         let (s, c) = (-omega * t).sin_cos();
         let want = [u_s + c * z[0] - s * z[1], s * z[0] + c * z[1]];
-        let got = sim.train.lateral_state(2, &sim.state());
+        let got = sim.train().lateral_state(2, &sim.state());
         for d in 0..2 {
             assert!(
                 (got[d] - want[d]).abs() <= 1e-7 * amplitude,
@@ -226,7 +228,7 @@ fn a_planet_on_its_pin_turns_with_coriolis_and_centrifugal_terms() {
 fn a_lateral_planets_pin_carries_its_centripetal_force() {
     let (omega, k, m): (f64, f64, f64) = (300.0, 5e7, 0.3);
     let r = spinning_planet(omega, k, m, [0.0; 2], [0.0; 2])
-        .train
+        .train()
         .cfg
         .orbit_radius[2];
     let zeta = m * r * omega * omega / (k - m * omega * omega);
@@ -234,10 +236,10 @@ fn a_lateral_planets_pin_carries_its_centripetal_force() {
     sim.advance(1e-3, &mut |_, _| {}).unwrap();
     let y = sim.state();
     let centripetal = m * (r + zeta) * omega * omega;
-    let bf = sim.train.bearing_forces(&y).unwrap().body[2];
+    let bf = sim.train().bearing_forces(&y).unwrap().body[2];
     assert!((bf[0] + centripetal).abs() <= 1e-9 * centripetal, "{bf:?}");
     assert!(bf[1].abs() <= 1e-9 * centripetal, "{bf:?}");
-    let q = sim.train.lateral_state(2, &y);
+    let q = sim.train().lateral_state(2, &y);
     assert!(
         (q[0] - zeta).abs() <= 1e-9 * zeta && q[1].abs() <= 1e-9 * zeta,
         "{q:?}"
@@ -315,18 +317,43 @@ fn a_lateral_planetary_set_balances_its_energy() {
     for k in 1..=40 {
         sim.advance(k as f64 * 5e-4, &mut |_, _| {}).unwrap();
         let y = sim.state();
-        let (e_kin, _, residual) = sim.train.energy(&y).unwrap();
+        let (e_kin, _, residual) = sim.train().energy(&y).unwrap();
         assert!(
             residual.abs() <= 1e-10 * e_kin,
             "t = {}: {residual} of {e_kin}",
             k as f64 * 5e-4
         );
     }
-    let q = sim.train.lateral_state(2, &sim.state());
+    let q = sim.train().lateral_state(2, &sim.state());
     assert!(
         q[0].abs() + q[1].abs() > 1e-7,
         "the planet swings on its pin: {q:?}"
     );
+}
+
+/// The state's two capacities (docs/lateral.md, "Capacity"): the energy test's set (5 bodies,
+/// 15 coordinates) stepped on the full state gives the compact run's trace bit for bit, events
+/// and all: components past `dim` take no part in any step, error norm or event. (A set of more
+/// coordinates runs on the full state: tests/python/test_directional.py's Lin & Parker set,
+/// tools/reliability.sh's memcheck.)
+#[test]
+fn the_full_state_steps_a_train_as_the_compact_one() {
+    let (spec, tau) = lateral_set(50.0);
+    let (train, y0) = Train::new(spec.clone(), tau.clone(), None).unwrap();
+    assert!(train.dim() <= NY_COMPACT);
+    let mut small = TrainRun::<Compact>::new(train.clone(), &y0, 1, 0.0, 1e-8);
+    let mut full = TrainRun::<Train>::new(train, &y0, 1, 0.0, 1e-8);
+    let (mut n_small, mut n_full) = (0, 0);
+    for k in 1..=20 {
+        small.advance(k as f64 * 5e-4, &mut |_, _| n_small += 1).unwrap();
+        full.advance(k as f64 * 5e-4, &mut |_, _| n_full += 1).unwrap();
+        assert_eq!(small.state().0, full.state().0, "t = {}", k as f64 * 5e-4);
+    }
+    assert!(n_small > 0 && n_small == n_full, "{n_small} and {n_full} events");
+    assert_eq!(small.driver.stats, full.driver.stats);
+
+    let sim = TrainSimulation::new(spec, tau, None, 1, 0.0, 1e-8).unwrap();
+    assert!(matches!(sim, TrainSimulation::Compact(_)));
 }
 
 /// The refusals of lateral.md §1, each naming the body and the number.
@@ -400,7 +427,7 @@ fn the_static_start_finds_the_bearings_deflection() {
     let (k, f, n) = (c.k, c.f, c.n);
     let (spec, tau) = c.train([0.0; 2], 0.0);
     let sim = TrainSimulation::new(spec.clone(), tau, None, 1, 0.0, 1e-10).unwrap();
-    let solved = static_start(spec, &sim.train.loads).unwrap();
+    let solved = static_start(spec, &sim.train().loads).unwrap();
     let q = solved.bodies[0].lateral.unwrap().q_start;
     for d in 0..2 {
         let want = -f * n[d] / k[d];
@@ -434,11 +461,11 @@ fn a_floating_sun_shares_the_load_equally() {
         // The sun's 50 N.m against the carrier's (1 + 57/21) x 50 N.m: balanced at rest.
         let tau = vec![50.0, -50.0 * (1.0 + 57.0 / 21.0), 0.0, 0.0, 0.0];
         let sim = TrainSimulation::new(spec.clone(), tau.clone(), None, 1, 0.0, 1e-10).unwrap();
-        let solved = static_start(spec, &sim.train.loads).unwrap();
+        let solved = static_start(spec, &sim.train().loads).unwrap();
         let sim = TrainSimulation::new(solved, tau, None, 1, 0.0, 1e-10).unwrap();
         let y = sim.state();
-        let f = [0, 1, 2].map(|m| sim.train.mesh_readout(m, &y).unwrap().flank_force[0]);
-        (f, sim.train.cfg.orbit_radius[2])
+        let f = [0, 1, 2].map(|m| sim.train().mesh_readout(m, &y).unwrap().flank_force[0]);
+        (f, sim.train().cfg.orbit_radius[2])
     };
     let (f, r) = shares(true);
     let mean = (f[0] + f[1] + f[2]) / 3.0;

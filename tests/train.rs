@@ -209,8 +209,8 @@ fn traces_agree(p: &Params, spec: TrainSpec) {
         - reference.iter().map(|r| r[0]).fold(f64::MAX, f64::min);
     let mut worst: f64 = 0.0;
     for (r, y) in reference.iter().zip(&ys) {
-        let b = sim.train.bodies(y);
-        worst = worst.max((sim.train.dte(0, y) - r[0]).abs() / range);
+        let b = sim.train().bodies(y);
+        worst = worst.max((sim.train().dte(0, y) - r[0]).abs() / range);
         assert!((b.w[0] - r[1]).abs() <= 1e-7 * r[1].abs());
         assert!((b.w[1] - r[2]).abs() <= 1e-7 * r[2].abs());
     }
@@ -280,7 +280,7 @@ fn reducer(shaft_k: f64) -> TrainSpec {
 #[test]
 fn every_mesh_turns_in_the_ratio_of_its_tooth_counts() {
     let (sim, ys) = run_train(reducer(1e5), vec![100.0, 0.0, 0.0, 0.0], 1e-8, 1e-3, 50);
-    let (b0, b1) = (sim.train.bodies(&ys[9]), sim.train.bodies(&ys[49]));
+    let (b0, b1) = (sim.train().bodies(&ys[9]), sim.train().bodies(&ys[49]));
     let d: Vec<f64> = (0..4).map(|i| b1.theta[i] - b0.theta[i]).collect();
     for (a, b) in [(0, 1), (2, 3)] {
         let ratio = d[a] / d[b];
@@ -301,7 +301,7 @@ fn only_the_event_functions_in_use_are_carried() {
     let mut spec = reducer(1e5);
     spec.meshes[1].pair.a.pitch_errors = (0..22).map(|k| 1.5e-7 * (k as f64 * 0.9).sin()).collect();
     let (sim, ys) = run_train(spec, vec![100.0, 0.0, 0.0, 0.0], 1e-8, 1e-3, 20);
-    let t = &sim.train;
+    let t = &sim.train();
     assert_eq!(t.n_event_fns(), BASE_EVENTS + N_EVENTS);
     for y in &ys {
         let mut packed = vec![f64::NAN; t.n_event_fns()];
@@ -342,7 +342,7 @@ fn only_the_event_functions_in_use_are_carried() {
 #[test]
 fn the_energy_balance_closes_with_shafts_and_meshes() {
     let sim = undamped_reducer_balance(Ripple::NONE);
-    assert!(sim.train.n_events > 100, "pair switches in both meshes");
+    assert!(sim.train().n_events > 100, "pair switches in both meshes");
 }
 
 /// Runs the reducer without any damping (body 1 carrying `ripple`) and checks that its energy
@@ -356,7 +356,7 @@ fn undamped_reducer_balance(ripple: Ripple) -> TrainSimulation {
     spec.bodies[0].ripple = ripple;
     let (sim, ys) = run_train(spec, vec![100.0, 0.0, 0.0, 0.0], 1e-9, 1e-3, 30);
     let y = ys.last().unwrap();
-    let (e_kin, _, residual) = sim.train.energy(y).unwrap();
+    let (e_kin, _, residual) = sim.train().energy(y).unwrap();
     assert!(
         residual.abs() <= 1e-6 * e_kin,
         "residual {residual} J of E_kin {e_kin} J"
@@ -382,7 +382,7 @@ fn a_stiff_shaft_tends_to_one_body() {
     };
     let (h, n) = (1e-3, 20);
     let (msim, my) = run_train(merged, tau(3), 1e-9, h, n);
-    let w_limit = msim.train.bodies(my.last().unwrap()).w[2];
+    let w_limit = msim.train().bodies(my.last().unwrap()).w[2];
     let mut last = f64::INFINITY;
     // Each shaft 10 % of critical damping on the reduced inertia J2 J3/(J2 + J3) = 1/3, so
     // its vibration dies out and the quasi-static twist T/k remains.
@@ -390,7 +390,7 @@ fn a_stiff_shaft_tends_to_one_body() {
         let mut spec = reducer(k);
         spec.shafts[0].d = 0.2 * (k / 3.0f64).sqrt();
         let (sim, ys) = run_train(spec, tau(4), 1e-9, h, n);
-        let w = sim.train.bodies(ys.last().unwrap()).w[3];
+        let w = sim.train().bodies(ys.last().unwrap()).w[3];
         let diff = (w - w_limit).abs();
         assert!(diff < last, "k = {k}: {diff} not below {last}");
         last = diff;
@@ -471,7 +471,7 @@ fn contact_model_3_and_deviations_work_per_mesh() {
         let worst = ys
             .iter()
             .zip(&dte)
-            .map(|(y, d)| (sim.train.dte(0, y) - d).abs() / range)
+            .map(|(y, d)| (sim.train().dte(0, y) - d).abs() / range)
             .fold(0.0, f64::max);
         assert!(
             worst <= 1e-7,
@@ -510,7 +510,7 @@ fn a_ripple_on_a_lone_body_does_the_work_of_its_closed_form() {
     let e0 = 0.5 * j * w0 * w0;
     let mut swing: f64 = 0.0;
     for y in &ys {
-        let b = sim.train.bodies(y);
+        let b = sim.train().bodies(y);
         let (theta, w) = (b.theta[0], b.w[0]);
         let work = ripple.amplitude / ripple.order
             * (ripple.phase.cos() - (ripple.order * theta + ripple.phase).cos());
@@ -575,20 +575,20 @@ fn a_speed_driven_body_holds_its_input_and_its_drive_does_the_work() {
         let t = k as f64 * 1e-3;
         sim.advance(t, &mut |_, _| {}).unwrap();
         let y = sim.state();
-        let b = sim.train.bodies(&y);
-        let held = sim.train.loads.w_in[3];
+        let b = sim.train().bodies(&y);
+        let held = sim.train().loads.w_in[3];
         assert!(
             (b.w[3] - held).abs() <= 1e-13 * held,
             "step {k}: {} against {held}",
             b.w[3]
         );
         // A new speed, 5 % about the start's at 50 Hz.
-        let mut loads = sim.train.loads.clone();
+        let mut loads = sim.train().loads.clone();
         loads.w_in[3] = w0 * (1.0 + 0.05 * (2.0 * std::f64::consts::PI * 50.0 * t).sin());
         let w_ext = y[W_EXT];
         sim.set_loads(loads.clone());
         let z = sim.state();
-        let after = sim.train.bodies(&z);
+        let after = sim.train().bodies(&z);
         for i in 0..3 {
             assert!(
                 (after.w[i] - b.w[i]).abs() <= 1e-13 * b.w[i].abs(),
@@ -602,7 +602,7 @@ fn a_speed_driven_body_holds_its_input_and_its_drive_does_the_work() {
         work_in_jumps += jump.abs();
     }
     let y = sim.state();
-    let (e_kin, _, residual) = sim.train.energy(&y).unwrap();
+    let (e_kin, _, residual) = sim.train().energy(&y).unwrap();
     assert!(work_in_jumps > 1.0, "the input moved: {work_in_jumps} J");
     assert!(
         residual.abs() <= 1e-6 * e_kin,
@@ -617,13 +617,13 @@ fn a_speed_driven_body_holds_its_input_and_its_drive_does_the_work() {
 fn a_static_start_hands_the_load_to_the_drive() {
     let tau = vec![100.0, 0.0, 0.0, 0.0];
     let mut sim = TrainSimulation::new(driven_reducer(), tau.clone(), None, 1, 0.0, 1e-9).unwrap();
-    let spec = static_start(driven_reducer(), &sim.train.loads).unwrap();
+    let spec = static_start(driven_reducer(), &sim.train().loads).unwrap();
     sim = TrainSimulation::new(spec, tau, None, 1, 0.0, 1e-9).unwrap();
     let y = sim.state();
-    let drive = sim.train.drive_torque(3, &y).unwrap();
+    let drive = sim.train().drive_torque(3, &y).unwrap();
     assert!((drive + 225.0).abs() <= 1e-8 * 225.0, "{drive}");
     let mut dy = State::zeros();
-    sim.train.rhs(&y, &mut dy).unwrap();
+    sim.train().rhs(&y, &mut dy).unwrap();
     assert!(
         dy[W_EXT].abs() <= 1e-8 * 100.0 * 100.0,
         "no net power: {}",

@@ -105,10 +105,10 @@ impl RigSim for Simulation {
 impl RigSim for TrainSimulation {
     type Model = Train;
     fn model(&self) -> &Train {
-        &self.train
+        self.train()
     }
     fn model_mut(&mut self) -> &mut Train {
-        &mut self.train
+        self.train_mut()
     }
     fn into_model(self) -> Train {
         self.into_train()
@@ -123,7 +123,7 @@ impl RigSim for TrainSimulation {
         TrainSimulation::state(self)
     }
     fn stats(&self) -> &Stats {
-        &self.driver.stats
+        TrainSimulation::stats(self)
     }
     fn needs_work(&self, t_end: f64) -> bool {
         TrainSimulation::needs_work(self, t_end)

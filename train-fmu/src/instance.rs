@@ -12,7 +12,7 @@ use crate::variables::{
 };
 use fmi2_slave::fmu_state::{Reader, Writer};
 use gear_model::driver::exchange::{Exchange, ExchangeRig};
-use gear_model::driver::train_simulation::TrainSimulation;
+use gear_model::driver::train_simulation::{TrainRun, TrainSimulation, TrainSystem};
 use gear_model::driver::Vector;
 use gear_model::driver::{Method, Stats};
 use gear_model::model::mesh::LawOutOfRange;
@@ -216,7 +216,7 @@ fn fresh_simulation(
         rel_tol,
     )
     .map_err(|e| e.message)?;
-    sim.train.static_start = deflections;
+    sim.train_mut().static_start = deflections;
     sim.set_loads(loads);
     if let Some(stop) = s.stop_time {
         sim.set_stop_time(stop);
@@ -319,8 +319,8 @@ impl Rig for TrainRig {
     const STATE_MAGIC: [u8; 8] = *b"SGTSTATE";
     /// 2 since the driver saves the margins of the event functions in use, packed; 3 since
     /// the train keeps the deflections of its static start; 4 since its loads hold the speed
-    /// inputs.
-    const STATE_FORMAT_VERSION: u32 = 4;
+    /// inputs; 5 since the run is at one of two capacities (`TrainSimulation`).
+    const STATE_FORMAT_VERSION: u32 = 5;
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
     const STATES: &'static [(Var, Var)] = STATES;
@@ -371,7 +371,7 @@ impl Rig for TrainRig {
             }
             Run::Sim(sim) => {
                 let (y, stats) = (sim.state(), sim.statistics());
-                write_outputs(&sim.train, &y, stats, &sim.driver.stats, cache, out)
+                write_outputs(sim.train(), &y, stats, sim.stats(), cache, out)
             }
         }
     }
@@ -448,7 +448,7 @@ impl Rig for TrainRig {
 
     fn init_warnings(sim: &TrainSimulation) -> Vec<String> {
         {
-            sim.train
+            sim.train()
                 .meshes
                 .iter()
                 .enumerate()
@@ -494,7 +494,7 @@ impl Rig for TrainRig {
             ..s.clone()
         };
         if s.sim.is_some() || s.me.is_some() {
-            let train = s.sim.as_ref().map(|x| &x.train);
+            let train = s.sim.as_ref().map(|x| x.train());
             let solved = train
                 .or(s.me.as_ref().map(|x| &x.rig))
                 .and_then(|t| t.static_start.clone());
@@ -515,9 +515,17 @@ impl Rig for TrainRig {
 /// The configuration a state leaves out, from a simulation built afresh from its parameters,
 /// and the checks a checksum cannot make.
 fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), String> {
-    let t = &mut sim.train;
-    let mut values = restore_train(t, &fresh.train)?;
-    let d = &sim.driver;
+    match sim {
+        TrainSimulation::Compact(r) => restore_run(r, fresh.train()),
+        TrainSimulation::Full(r) => restore_run(r, fresh.train()),
+    }
+}
+
+/// `restore` at one capacity.
+fn restore_run<S: TrainSystem>(run: &mut TrainRun<S>, fresh: &Train) -> Result<(), String> {
+    let t = run.train.train_mut();
+    let mut values = restore_train(t, fresh)?;
+    let d = &run.driver;
     values.extend([d.t, d.observed, d.search_from]);
     values.extend_from_slice(d.y_start.as_slice());
     // The method's own state: a state edited with a recomputed checksum must bring no NaN.
@@ -548,7 +556,7 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
     }
     // The driver's event functions are the meshes' in use, packed (`Train::event_of`).
     if d.pending
-        .is_some_and(|p| p.index >= sim.train.n_event_fns())
+        .is_some_and(|p| p.index >= run.train.train().n_event_fns())
     {
         return Err("an event index in the state is out of range".into());
     }
@@ -557,7 +565,7 @@ fn restore(sim: &mut TrainSimulation, fresh: &TrainSimulation) -> Result<(), Str
 
 /// `restore` for a Model Exchange run.
 fn restore_exchange(ex: &mut Exchange<Train>, fresh: &TrainSimulation) -> Result<(), String> {
-    let values = restore_train(&mut ex.rig, &fresh.train)?;
+    let values = restore_train(&mut ex.rig, fresh.train())?;
     if values.iter().any(|v| !v.is_finite()) || !ex.points_finite() {
         return Err("a value of the Model Exchange state is not finite".into());
     }

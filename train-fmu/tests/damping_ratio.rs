@@ -60,7 +60,7 @@ fn damping_ratio_sets_chi_for_the_mesh_mode() {
     let mut sim =
         TrainSimulation::new(spec.clone(), loads.tau.clone(), None, 1, 0.0, 1e-10).unwrap();
     sim.set_loads(loads.clone());
-    let train = &sim.train;
+    let train = &sim.train();
     let r = train.mesh_readout(0, &sim.state()).unwrap();
     let f0 = r.flank_force[0] + r.flank_force[1];
     assert!(
@@ -91,7 +91,7 @@ fn damping_ratio_sets_chi_for_the_mesh_mode() {
     let x: Vec<f64> = (1..=2000)
         .map(|k| {
             sim.advance(k as f64 * h, &mut |_, _| {}).unwrap();
-            sim.train.dte(0, &sim.state()) - dte_end
+            sim.train().dte(0, &sim.state()) - dte_end
         })
         .collect();
     // Each maximum of x, refined by the parabola through it and its neighbours.

@@ -286,14 +286,14 @@ fn static_start_is_the_reference_running_start() {
         .unwrap();
         let want = build::spec(&p, &i).unwrap();
         let pairs = got
-            .train
+            .train()
             .spec()
             .meshes
             .iter()
             .zip(&want.meshes)
             .map(|(a, b)| (a.dte_start, b.dte_start));
         let twists = got
-            .train
+            .train()
             .spec()
             .shafts
             .iter()
@@ -311,7 +311,7 @@ fn static_start_is_the_reference_running_start() {
     let got = simulation(&text);
     let (p, i) = params(&scene_values(&root().join("scenes/train/internal.toml"))).unwrap();
     for (a, b) in got
-        .train
+        .train()
         .spec()
         .meshes
         .iter()
@@ -343,9 +343,9 @@ fn static_start_is_the_reference_running_start() {
 fn static_start_holds_the_mesh_forces_until_a_pair_switches() {
     let force = |sim: &TrainSimulation| -> Vec<f64> {
         let y = sim.state();
-        (0..sim.train.meshes.len())
+        (0..sim.train().meshes.len())
             .map(|m| {
-                let r = sim.train.mesh_readout(m, &y).unwrap();
+                let r = sim.train().mesh_readout(m, &y).unwrap();
                 r.flank_force[0] - r.flank_force[1]
             })
             .collect()
@@ -364,7 +364,7 @@ fn static_start_holds_the_mesh_forces_until_a_pair_switches() {
         let mut sim = simulation(&text);
         let f0 = force(&sim);
         let scale = f0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let fastest = 2.0 * std::f64::consts::PI / sim.train.vibration_frequency(&sim.state());
+        let fastest = 2.0 * std::f64::consts::PI / sim.train().vibration_frequency(&sim.state());
         // The first switch, from a run of its own.
         let mut probe = sim.clone();
         let mut first = f64::INFINITY;
@@ -421,7 +421,7 @@ fn the_planetary_shorthand_is_the_scene() {
     ))
     .unwrap();
     let want = build::spec(&p, &i).unwrap();
-    let got = sim.train.spec();
+    let got = sim.train().spec();
     assert_eq!(got.bodies.len(), want.bodies.len());
     for (a, b) in got.bodies.iter().zip(&want.bodies) {
         assert!(
@@ -551,11 +551,11 @@ struct Window {
 
 fn run_window(text: &str, t_end: f64, samples: usize) -> Window {
     let mut sim = simulation(text);
-    let n = sim.train.meshes.len();
+    let n = sim.train().meshes.len();
     let y0 = sim.state();
     let (theta0, dte0): (Vec<f64>, Vec<f64>) = (
-        sim.train.bodies(&y0).theta[..7].to_vec(),
-        (0..n).map(|m| sim.train.dte(m, &y0)).collect(),
+        sim.train().bodies(&y0).theta[..7].to_vec(),
+        (0..n).map(|m| sim.train().dte(m, &y0)).collect(),
     );
     let mut w = Window {
         force: vec![0.0; n],
@@ -567,7 +567,7 @@ fn run_window(text: &str, t_end: f64, samples: usize) -> Window {
     for k in 1..=samples {
         sim.advance(t_end * k as f64 / samples as f64, &mut |_, _| {})
             .unwrap();
-        let (y, t) = (sim.state(), &sim.train);
+        let (y, t) = (sim.state(), &sim.train());
         for m in 0..n {
             let r = t.mesh_readout(m, &y).unwrap();
             w.force[m] += (r.flank_force[0] + r.flank_force[1]) / samples as f64;
@@ -576,7 +576,7 @@ fn run_window(text: &str, t_end: f64, samples: usize) -> Window {
         w.housing += t.housing_torque(&y).unwrap() / samples as f64;
         w.drive += t.drive_torque(6, &y).unwrap() / samples as f64;
     }
-    let theta = sim.train.bodies(&sim.state()).theta;
+    let theta = sim.train().bodies(&sim.state()).theta;
     w.travel = (0..7).map(|i| theta[i] - theta0[i]).collect();
     w
 }

@@ -4,7 +4,7 @@ use super::Vector;
 use serde::de::{Error, SeqAccess, Visitor};
 use serde::ser::SerializeTuple;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
-use std::ops::{Index, IndexMut};
+use std::ops::{Deref, DerefMut, Index, IndexMut};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wide<const N: usize>(pub [f64; N]);
@@ -21,6 +21,32 @@ impl<const N: usize> IndexMut<usize> for Wide<N> {
     #[inline(always)]
     fn index_mut(&mut self, i: usize) -> &mut f64 {
         &mut self.0[i]
+    }
+}
+
+/// A state is read and written by the model as a slice, whatever its capacity.
+impl<const N: usize> Deref for Wide<N> {
+    type Target = [f64];
+    #[inline(always)]
+    fn deref(&self) -> &[f64] {
+        &self.0
+    }
+}
+
+impl<const N: usize> DerefMut for Wide<N> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [f64] {
+        &mut self.0
+    }
+}
+
+impl<const N: usize> Wide<N> {
+    /// The first M components, the rest 0 (a state moved to another capacity: components past
+    /// a model's `dim` are 0).
+    pub fn resized<const M: usize>(&self) -> Wide<M> {
+        Wide(std::array::from_fn(|i| {
+            self.0.get(i).copied().unwrap_or(0.0)
+        }))
     }
 }
 

@@ -131,7 +131,7 @@ fn documentation(t: &Table) -> String {
         "A planet's coordinates are zeta (radial) and eta (tangential) at its pin, in its carrier's frame, with the Coriolis, centrifugal and ",
         "Euler terms of a turning carrier. Every pair's penetration gains the centres' displacement along its line of action ",
         "(<code>mesh[m].delta_lat</code>; <code>dte</code> stays the rotational part); a lateral body's bearing force is its spring and damper. ",
-        "Outputs <code>body[i].x</code>, <code>y</code>, <code>vx</code>, <code>vy</code>. At most 16 coordinates: one rotation per body and two ",
+        "Outputs <code>body[i].x</code>, <code>y</code>, <code>vx</code>, <code>vy</code>. At most 48 coordinates: one rotation per body and two ",
         "translations per lateral body. A direction that nothing holds, a lateral carrier on rigid pins, m = 0 or a negative stiffness ",
         "is refused, naming the body (docs/lateral.md).</li>\n",
         "<li><b>Carriers.</b> <code>body[i].carrier = c</code> (Integer; 0: the housing holds the axis) puts body i's axis in body c: ",

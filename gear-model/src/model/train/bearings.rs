@@ -46,7 +46,7 @@ impl Train {
     }
 
     /// Every bearing's force at y (lateral.md §6).
-    pub fn bearing_forces(&self, y: &State) -> Result<BearingForces, LawOutOfRange> {
+    pub fn bearing_forces(&self, y: &[f64]) -> Result<BearingForces, LawOutOfRange> {
         let b = self.bodies(y);
         let mut paper = [[0.0; 2]; MAX_MESHES];
         for (m, p) in paper.iter_mut().enumerate().take(self.meshes.len()) {
@@ -62,7 +62,7 @@ impl Train {
     /// needs the right-hand side, for its carrier's acceleration.
     pub fn bearing_forces_with(
         &self,
-        y: &State,
+        y: &[f64],
         b: &Bodies,
         paper: &[[f64; 2]],
     ) -> Result<BearingForces, LawOutOfRange> {

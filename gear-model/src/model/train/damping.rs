@@ -9,7 +9,7 @@
 //! stiffness averaged over a mesh cycle at F0 (`static_mesh`). Critical damping is
 //! 2 sqrt(k m_eq), so chi = 2 zeta sqrt(k m_eq) / F0.
 
-use super::{State, Train, HOUSING};
+use super::{Train, HOUSING};
 use crate::model::mesh::ContactModel;
 use crate::model::static_mesh;
 use crate::model::ModelError;
@@ -20,7 +20,7 @@ use crate::model::ModelError;
 const CYCLE_POINTS: usize = 64;
 
 /// Mesh m's chi for damping ratio `zeta` with the train at y (its static balance).
-pub fn chi_for_ratio(train: &Train, y: &State, m: usize, zeta: f64) -> Result<f64, ModelError> {
+pub fn chi_for_ratio(train: &Train, y: &[f64], m: usize, zeta: f64) -> Result<f64, ModelError> {
     let mesh = &train.meshes[m];
     let name = format!("mesh[{}]", m + 1);
     let r = train

@@ -22,11 +22,11 @@ impl Train {
     }
 
     /// The event margins, packed (`event_of`): `out` is `n_event_fns()` long.
-    pub fn event_margins(&self, y: &State, out: &mut [f64]) {
+    pub fn event_margins(&self, y: &[f64], out: &mut [f64]) {
         by_slots!(self.event_margins_in(y, out))
     }
 
-    fn event_margins_in<const N: usize>(&self, y: &State, out: &mut [f64]) {
+    fn event_margins_in<const N: usize>(&self, y: &[f64], out: &mut [f64]) {
         let b = self.bodies_in::<N>(y);
         let start = &self.cfg.event_start;
         for (m, mesh) in self.meshes.iter().enumerate() {
@@ -36,8 +36,8 @@ impl Train {
 
     pub fn event_margins_and_rates(
         &self,
-        y: &State,
-        dy: &State,
+        y: &[f64],
+        dy: &[f64],
         margins: &mut [f64],
         rates: &mut [f64],
     ) {
@@ -46,8 +46,8 @@ impl Train {
 
     fn event_margins_and_rates_in<const N: usize>(
         &self,
-        y: &State,
-        dy: &State,
+        y: &[f64],
+        dy: &[f64],
         margins: &mut [f64],
         rates: &mut [f64],
     ) {
@@ -70,7 +70,7 @@ impl Train {
 
     /// Model Exchange's event indicators (`N_MARGINS`): mesh m's functions from m N_EVENTS
     /// on, as the indicators' names say; functions not in use read +1.
-    pub fn event_indicators(&self, y: &State, z: &mut [f64]) {
+    pub fn event_indicators(&self, y: &[f64], z: &mut [f64]) {
         z.fill(1.0);
         let b = self.bodies(y);
         for (m, mesh) in self.meshes.iter().enumerate() {
@@ -81,18 +81,18 @@ impl Train {
         }
     }
 
-    pub fn margin(&self, i: usize, y: &State) -> f64 {
+    pub fn margin(&self, i: usize, y: &[f64]) -> f64 {
         by_slots!(self.margin_in(i, y))
     }
 
-    fn margin_in<const N: usize>(&self, i: usize, y: &State) -> f64 {
+    fn margin_in<const N: usize>(&self, i: usize, y: &[f64]) -> f64 {
         let (m, e) = self.event_of(i);
         let b = self.bodies_in::<N>(y);
         self.meshes[m].margin(EventFn::from_index(e), &self.kin(m, y, &b))
     }
 
     /// Applies packed event i (`event_of`).
-    pub fn handle_event(&mut self, i: usize, y: &State) -> Result<EventReport, LawOutOfRange> {
+    pub fn handle_event(&mut self, i: usize, y: &[f64]) -> Result<EventReport, LawOutOfRange> {
         let (m, e) = self.event_of(i);
         let b = self.bodies(y);
         let k = self.kin(m, y, &b);

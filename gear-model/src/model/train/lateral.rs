@@ -45,7 +45,7 @@ pub(super) struct LatBody {
 impl LatBody {
     /// A planet's centre from its carrier's axis in its pin's frame, u = (R + zeta, eta).
     #[inline(always)]
-    fn arm(&self, y: &State) -> [f64; 2] {
+    fn arm(&self, y: &[f64]) -> [f64; 2] {
         [self.pin_r + y[self.at], y[self.at + 2]]
     }
 }
@@ -310,7 +310,7 @@ impl Train {
 
     /// Mesh m's Dp_A - Dp_B split into its housing-frame part X and its carrier-frame part P
     /// (lateral planets), each with its rate and, with `dy`, acceleration.
-    fn centre_parts(&self, m: usize, y: &State, dy: Option<&State>) -> (Motion, Motion) {
+    fn centre_parts(&self, m: usize, y: &[f64], dy: Option<&[f64]>) -> (Motion, Motion) {
         let lat = self.lat();
         let (mut x, mut p) = ([[0.0; 2]; 3], [[0.0; 2]; 3]);
         for (e, sign) in lat.ends[m].iter().zip([1.0, -1.0]) {
@@ -341,9 +341,9 @@ impl Train {
     pub(super) fn centre_motion<const N: usize>(
         &self,
         m: usize,
-        y: &State,
+        y: &[f64],
         b: &Bodies<N>,
-        d: Option<(&State, &Bodies<N>)>,
+        d: Option<(&[f64], &Bodies<N>)>,
     ) -> Motion {
         let (x, p) = self.centre_parts(m, y, d.map(|d| d.0));
         let z = match self.cfg.frames[m].carrier {
@@ -376,7 +376,7 @@ impl Train {
         &self,
         m: usize,
         f_b: [f64; 2],
-        y: &State,
+        y: &[f64],
         b: &Bodies<N>,
         on: &mut [f64; N],
         q: &mut [[f64; 2]; MAX_BODIES],
@@ -407,7 +407,7 @@ impl Train {
     /// planets' reactions to their carriers' torques: J_c psi_c'' = Q_psi - sum u x Q_u.
     pub(super) fn book_bearings<const N: usize>(
         &self,
-        y: &State,
+        y: &[f64],
         on: &mut [f64; N],
         q: &mut [[f64; 2]; MAX_BODIES],
         p_loss: &mut f64,
@@ -433,11 +433,11 @@ impl Train {
     /// need their carriers' accelerations.
     pub(super) fn lateral_rates<const N: usize>(
         &self,
-        y: &State,
+        y: &[f64],
         b: &Bodies<N>,
         acc: &[f64; N],
         q: &[[f64; 2]; MAX_BODIES],
-        dy: &mut State,
+        dy: &mut [f64],
     ) {
         let lat = self.lat();
         let mut a = [[0.0; 2]; MAX_BODIES];
@@ -482,7 +482,7 @@ impl Train {
 
     /// The lateral bodies' kinetic energy sum m |p'|^2 / 2 (a planet's p' = q_c' + Rot (psi'
     /// S u + u')) and their bearings' elastic energy.
-    pub(super) fn lateral_energy(&self, y: &State, b: &Bodies) -> (f64, f64) {
+    pub(super) fn lateral_energy(&self, y: &[f64], b: &Bodies) -> (f64, f64) {
         let Some(lat) = &self.cfg.lateral else {
             return (0.0, 0.0);
         };
@@ -517,7 +517,7 @@ impl Train {
 
     /// Body i's lateral displacement and velocity (x, y, vx, vy; a planet's zeta, eta and
     /// their rates in its carrier's frame): 0 for a body that is not lateral.
-    pub fn lateral_state(&self, i: usize, y: &State) -> [f64; 4] {
+    pub fn lateral_state(&self, i: usize, y: &[f64]) -> [f64; 4] {
         let Some(l) = self.cfg.lateral.as_ref().and_then(|lat| lat.of_body[i]) else {
             return [0.0; 4];
         };
@@ -526,7 +526,7 @@ impl Train {
     }
 
     /// Mesh m's forward gain (Dp_A - Dp_B) . n_f (`mesh[m].delta_lat`).
-    pub fn delta_lat(&self, m: usize, y: &State) -> f64 {
+    pub fn delta_lat(&self, m: usize, y: &[f64]) -> f64 {
         if !self.meshes[m].moving_centres {
             return 0.0;
         }
@@ -536,7 +536,7 @@ impl Train {
     }
 
     /// The bearing force on each lateral body (-k q - c q', in its support's frame), by body.
-    pub(super) fn lateral_bearing_forces(&self, y: &State) -> Vec<(usize, [f64; 2])> {
+    pub(super) fn lateral_bearing_forces(&self, y: &[f64]) -> Vec<(usize, [f64; 2])> {
         let Some(lat) = &self.cfg.lateral else {
             return vec![];
         };

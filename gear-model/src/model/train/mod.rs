@@ -36,6 +36,10 @@ pub use topology::{
 /// translations.
 pub const NY: usize = 2 + 2 * MAX_COORDS;
 pub type State = crate::driver::wide::Wide<NY>;
+/// The state of a train with at most one coordinate per body (every train without lateral
+/// bodies, and lateral ones that fit): what the driver steps such a train on.
+pub const NY_COMPACT: usize = 2 + 2 * MAX_BODIES;
+pub type CompactState = crate::driver::wide::Wide<NY_COMPACT>;
 pub const W_EXT: usize = 0;
 pub const W_LOSS: usize = 1;
 /// Model Exchange's event indicators: every mesh's event functions, mesh m's from m N_EVENTS
@@ -410,13 +414,13 @@ impl Train {
     }
 
     /// The bodies' angles and speeds from the coordinates.
-    pub fn bodies(&self, y: &State) -> Bodies {
+    pub fn bodies(&self, y: &[f64]) -> Bodies {
         self.bodies_in(y)
     }
 
     /// The same in N slots (`by_slots!`).
     #[inline]
-    fn bodies_in<const N: usize>(&self, y: &State) -> Bodies<N> {
+    fn bodies_in<const N: usize>(&self, y: &[f64]) -> Bodies<N> {
         let c = &self.cfg.coords;
         let mut b = Bodies::default();
         if let Some(order) = &c.substitution {
@@ -449,7 +453,7 @@ impl Train {
 
     /// Mesh m's dte and its rate at y.
     #[inline]
-    fn dte_and_rate(&self, m: usize, y: &State) -> (f64, f64) {
+    fn dte_and_rate(&self, m: usize, y: &[f64]) -> (f64, f64) {
         let l = &self.cfg.links[m];
         if let [(i, c, _)] = l.dte[..] {
             if c == 1.0 {
@@ -467,14 +471,14 @@ impl Train {
     /// Mesh m's coordinates: A's angle and speed relative to the mesh's carrier, its dte and
     /// rate (no slider in a train), and its centres' motion if they move.
     #[inline(always)]
-    fn kin<const N: usize>(&self, m: usize, y: &State, b: &Bodies<N>) -> Kin {
+    fn kin<const N: usize>(&self, m: usize, y: &[f64], b: &Bodies<N>) -> Kin {
         self.kin_of::<N, true>(m, y, b)
     }
 
     /// `kin`, where LAT = false knows that no mesh's centres move (a train without lateral
     /// bodies: the right-hand side's common path).
     #[inline(always)]
-    fn kin_of<const N: usize, const LAT: bool>(&self, m: usize, y: &State, b: &Bodies<N>) -> Kin {
+    fn kin_of<const N: usize, const LAT: bool>(&self, m: usize, y: &[f64], b: &Bodies<N>) -> Kin {
         let l = &self.cfg.links[m];
         let (q, dq) = self.dte_and_rate(m, y);
         let mut k = [
@@ -498,7 +502,7 @@ impl Train {
     /// Mesh m's centres' motion into its `Kin` (kept out of `kin`, which the base scenes
     /// inline).
     #[inline(never)]
-    fn put_centres<const N: usize>(&self, m: usize, y: &State, b: &Bodies<N>, k: &mut Kin) {
+    fn put_centres<const N: usize>(&self, m: usize, y: &[f64], b: &Bodies<N>, k: &mut Kin) {
         let [z, v, _] = self.centre_motion(m, y, b, None);
         [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [z[0], z[1], v[0], v[1]];
     }
@@ -508,8 +512,8 @@ impl Train {
     fn kin_rate<const N: usize>(
         &self,
         m: usize,
-        (y, b): (&State, &Bodies<N>),
-        (dy, db): (&State, &Bodies<N>),
+        (y, b): (&[f64], &Bodies<N>),
+        (dy, db): (&[f64], &Bodies<N>),
     ) -> Kin {
         let mut k = self.kin(m, dy, db);
         if self.meshes[m].moving_centres {
@@ -526,7 +530,7 @@ impl Train {
     #[inline]
     fn torques<const N: usize, const LAT: bool>(
         &self,
-        y: &State,
+        y: &[f64],
         b: &Bodies<N>,
         mut lat: Option<&mut [[f64; 2]; MAX_BODIES]>,
     ) -> Result<Torques<N>, LawOutOfRange> {
@@ -597,12 +601,12 @@ impl Train {
 
     /// Right-hand side with the current modes: the bodies' accelerations (the inertias are
     /// diagonal in the absolute rotations), then each coordinate's.
-    pub fn rhs(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
+    pub fn rhs(&self, y: &[f64], dy: &mut [f64]) -> Result<(), LawOutOfRange> {
         by_slots!(self.rhs_in(y, dy))
     }
 
     #[inline]
-    fn rhs_in<const N: usize>(&self, y: &State, dy: &mut State) -> Result<(), LawOutOfRange> {
+    fn rhs_in<const N: usize>(&self, y: &[f64], dy: &mut [f64]) -> Result<(), LawOutOfRange> {
         let c = &*self.cfg;
         let b = self.bodies_in::<N>(y);
         if c.lateral.is_some() {
@@ -617,9 +621,9 @@ impl Train {
     #[inline(never)]
     fn rhs_lateral<const N: usize>(
         &self,
-        y: &State,
+        y: &[f64],
         b: &Bodies<N>,
-        dy: &mut State,
+        dy: &mut [f64],
     ) -> Result<(), LawOutOfRange> {
         let mut q = [[0.0; 2]; MAX_BODIES];
         let t = self.torques::<N, true>(y, b, Some(&mut q))?;
@@ -634,9 +638,9 @@ impl Train {
     fn rhs_from<const N: usize>(
         &self,
         t: &Torques<N>,
-        y: &State,
+        y: &[f64],
         b: &Bodies<N>,
-        dy: &mut State,
+        dy: &mut [f64],
     ) -> [f64; N] {
         let c = &*self.cfg;
         let n = c.spec.bodies.len();
@@ -666,7 +670,7 @@ impl Train {
         2 + 2 * (self.cfg.coords.coords.len() + lateral)
     }
 
-    pub fn check_state(&self, y: &State) -> Result<(), LawOutOfRange> {
+    pub fn check_state(&self, y: &[f64]) -> Result<(), LawOutOfRange> {
         let b = self.bodies(y);
         for (m, mesh) in self.meshes.iter().enumerate() {
             mesh.check_state(&self.kin(m, y, &b))
@@ -675,7 +679,7 @@ impl Train {
         Ok(())
     }
 
-    pub fn check_range(&self, y: &State) -> Result<(), LawOutOfRange> {
+    pub fn check_range(&self, y: &[f64]) -> Result<(), LawOutOfRange> {
         let mut dy = State::zeros();
         self.rhs(y, &mut dy)?;
         self.check_state(y)
@@ -685,7 +689,7 @@ impl Train {
     /// changed jumps to it, every other body keeping its speed (the drive's impulse reaches
     /// only its own body: shafts and meshes are compliant); the jump's kinetic energy is work
     /// of the drive.
-    pub fn set_loads(&mut self, loads: TrainLoads, y: &mut State) {
+    pub fn set_loads(&mut self, loads: TrainLoads, y: &mut [f64]) {
         let b = self.bodies(y);
         for m in 0..self.meshes.len() {
             let k = self.kin(m, y, &b);
@@ -698,7 +702,7 @@ impl Train {
             .iter()
             .any(|&i| self.loads.w_in[i] != loads.w_in[i])
         {
-            let before = *y;
+            let before = y.to_vec();
             let mut w = b.w;
             for &i in &c.driven {
                 w[i] = loads.w_in[i];
@@ -723,7 +727,7 @@ impl Train {
 
     /// Bound on the highest natural frequency \[rad/s\] (the trace of M^-1 K bounds its
     /// largest eigenvalue): each mesh's stiffness along its line of action, each shaft's.
-    pub fn vibration_frequency(&self, y: &State) -> f64 {
+    pub fn vibration_frequency(&self, y: &[f64]) -> f64 {
         let c = &*self.cfg;
         let b = self.bodies(y);
         let mut sum = 0.0;
@@ -742,7 +746,7 @@ impl Train {
 
     /// At most a quarter pitch of contact travel in any mesh (its objects' events recur every
     /// pitch), and for an explicit method `stability`/omega of the fastest vibration.
-    pub fn max_step(&self, y: &State, stability: Option<f64>) -> f64 {
+    pub fn max_step(&self, y: &[f64], stability: Option<f64>) -> f64 {
         let b = self.bodies(y);
         let mut h = f64::INFINITY;
         for (m, mesh) in self.meshes.iter().enumerate() {

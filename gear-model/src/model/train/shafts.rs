@@ -7,7 +7,7 @@ impl Train {
     pub(super) fn shaft_state<const N: usize>(
         &self,
         j: usize,
-        y: &State,
+        y: &[f64],
         b: Option<&Bodies<N>>,
     ) -> (f64, f64) {
         let c = &*self.cfg;
@@ -32,19 +32,19 @@ impl Train {
     }
 
     /// Shaft j's transmitted torque at y (gear-train.md §1).
-    pub fn shaft_torque(&self, j: usize, y: &State) -> f64 {
+    pub fn shaft_torque(&self, j: usize, y: &[f64]) -> f64 {
         let sh = &self.cfg.spec.shafts[j];
         let (q, dq) = self.shaft_state::<SLOTS>(j, y, None);
         sh.k * q + sh.d * dq
     }
 
     /// Shaft j's twist theta_a - theta_b + twist_start at y.
-    pub fn shaft_twist(&self, j: usize, y: &State) -> f64 {
+    pub fn shaft_twist(&self, j: usize, y: &[f64]) -> f64 {
         self.shaft_state::<SLOTS>(j, y, None).0
     }
 
     /// Shaft j's twist rate w_a - w_b at y.
-    pub fn shaft_twist_rate(&self, j: usize, y: &State) -> f64 {
+    pub fn shaft_twist_rate(&self, j: usize, y: &[f64]) -> f64 {
         self.shaft_state::<SLOTS>(j, y, None).1
     }
 }

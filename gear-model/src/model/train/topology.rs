@@ -10,10 +10,9 @@ pub const MAX_BODIES: usize = 16;
 pub const MAX_SHAFTS: usize = 15;
 pub const MAX_MESHES: usize = 16;
 /// The coordinates a train may have: its rotations (one per body) and two translations per
-/// lateral body (lateral.md §1). The state's capacity: every step zeroes and every
-/// communication step copies it whole, so it stays that of a torsional train of full size
-/// (at three times this, the torsional scenes cost 10-25 % more, docs/lateral.md).
-pub const MAX_COORDS: usize = MAX_BODIES;
+/// lateral body (lateral.md §1), every body lateral at most. A train whose state fits
+/// `NY_COMPACT` steps on that smaller state (`driver::train_simulation::Compact`).
+pub const MAX_COORDS: usize = 3 * MAX_BODIES;
 /// The housing (FMI body 0) as an element end: the slot after the bodies in every per-body
 /// array, where angles and speeds stay 0.
 pub const HOUSING: usize = MAX_BODIES;
