@@ -67,8 +67,9 @@ def lateral_bodies(start_values: dict, n: int) -> list[int]:
     return [i for i in range(1, n + 1) if bool(start_values.get(f"body[{i}].lateral", False))]
 
 
-def linearize(fmu: Path, start_values: dict) -> dict:
-    """The train's Jacobian about its static balance, and what reads it.
+def linearize(fmu: Path, start_values: dict, static_start: bool = True) -> dict:
+    """The train's Jacobian about its static balance (the FMU's static start, or with
+    static_start=False the start values' own deflections), and what reads it.
 
     Returns {'J': d(der(x))/dx over the free coordinates and rates (values first, then rates),
     'coords': their names, 'T': d(body theta)/d(coordinate value) (bodies x coords), 'X':
@@ -87,7 +88,7 @@ def linearize(fmu: Path, start_values: dict) -> dict:
         m.enterInitializationMode()
         for name, value in start_values.items():
             _set(m, by_name, name, value)
-        _set(m, by_name, "static_start", True)
+        _set(m, by_name, "static_start", static_start)
         m.exitInitializationMode()
         while True:
             info = m.newDiscreteStates()

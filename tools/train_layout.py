@@ -65,12 +65,13 @@ COUNT_DEFAULTS = {"n_bodies": 4, "n_shafts": 1, "n_meshes": 2}
 COUNT_NAMES = {"body": "n_bodies", "shaft": "n_shafts", "mesh": "n_meshes"}
 # Whole-train parameters that do not change the layout (accepted, not used).
 TRAIN_SCALARS = {"solver", "rel_tol", "statistics", "stats_start"}
+LATERAL_FIELDS = {"lateral", "k_x", "k_y", "c_x", "c_y", "x_start", "y_start", "vx_start",
+                  "vy_start"}
 BODY_FIELDS = {"J", "c", "w_start", "tau", "tau_ripple", "ripple_order", "ripple_phase",
                # planetary.md section 3: a planet's carrier, orbit angle, mass, pin errors
                "carrier", "orbit_angle", "m", "pin_error_r", "pin_error_t",
                # lateral.md section 1: a lateral body's bearing and start (not drawn)
-               "lateral", "k_x", "k_y", "c_x", "c_y", "x_start", "y_start", "vx_start",
-               "vy_start"}
+               *LATERAL_FIELDS}
 # + angle_start on body[1] only
 SHAFT_FIELDS = {"a", "b", "k", "d", "twist_start"}
 MESH_PLACEMENT = {"A", "B", "center_angle", "mount_A", "mount_B"}
@@ -709,8 +710,10 @@ def _reference_psi1(parsed):
     set that cannot be assembled: a loop-closing mesh more than 1 % of its base pitch into its
     teeth, with the assembly condition)."""
     from reference_model import train_ref as TR
+    # The torsional reference places the gears; a lateral body's displacements come after.
+    raw = {k: v for k, v in parsed["raw"].items() if k.rsplit(".", 1)[-1] not in LATERAL_FIELDS}
     try:
-        tr = TR.GearTrain(dict(parsed["raw"]))
+        tr = TR.GearTrain(raw)
     except ValueError as e:
         raise ValueError(f"placement (the reference model's): {e}") from None
     return float(tr.psi0[0])
