@@ -6,6 +6,7 @@
 #
 # Usage: bash tools/reliability.sh [steps]      (default 20000 communication steps of 1e-4 s; ~20 s)
 # SpurGearTrain then runs steps/4 steps of two instances (tests/c/train_memcheck.c) the same way,
+# with a planetary set, then again with a 4-planet set whose every member is lateral,
 # and a gearbox FMU (package-train --gearbox) steps/4 steps, its missing and damaged gearbox file
 # refused (tests/c/gearbox_memcheck.c).
 # Called by tools/test-all.sh after packaging. Needs gcc and valgrind (installed with apt-get
@@ -76,16 +77,26 @@ z.extract("binaries/linux64/SpurGearTrain.so", work)
 md = ET.fromstring(z.read("modelDescription.xml"))
 vr = {v.get("name"): v.get("valueReference") for v in md.iter("ScalarVariable")}
 kind = {v.get("name"): next(iter(v)).tag[0] for v in md.iter("ScalarVariable")}
-# The planetary scene's start values for the C program (R|I|B vr value).
-scene = tomllib.load(open("scenes/train/planetary-simple.toml", "rb"))["start_values"]
-with open(f"{work}/planetary.txt", "w") as f:
-    for name, x in scene.items():
-        f.write(f"{kind[name]} {vr[name]} {float(x)!r}\n")
-# The last planet moved a third of a tooth of the sun (z_sun 21) along its orbit.
-last = max(k for k in scene if k.endswith(".orbit_angle"))
-skew = scene[last] + 2 * math.pi / 21 / 3
+sys.path.insert(0, "tools")
+from bench_hil_lateral import scenes  # noqa: E402
+
+
+def planetary(scene, name):
+    """A set's start values for the C program (R|I|B vr value), and the last planet moved a
+    third of a tooth of the sun along its orbit (refused: off the assembly condition)."""
+    with open(f"{work}/{name}.txt", "w") as f:
+        for key, x in scene.items():
+            f.write(f"{kind[key]} {vr[key]} {float(x)!r}\n")
+    last = max(k for k in scene if k.endswith(".orbit_angle"))
+    skew = scene[last] + 2 * math.pi / scene.get("mesh[1].zA", 21) / 3
+    return [f"{work}/{name}.txt", vr["mesh[2].dte"], vr[last], repr(skew)]
+
+
+simple = tomllib.load(open("scenes/train/planetary-simple.toml", "rb"))["start_values"]
+# Every member of a 4-planet set lateral (21 coordinates: the full state), sun at 1104 rad/s.
+lateral = scenes(False)["lateral (21 DOF)"]
 print(md.get("guid"), vr["mesh[1].dte"], vr["body[4].tau"], vr["n_bodies"],
-      f"{work}/planetary.txt", vr["mesh[2].dte"], vr[last], repr(skew))
+      *planetary(simple, "planetary"), *planetary(lateral, "lateral"))
 EOF
 )
 gcc -std=c99 -g -O1 -Wall -Wextra -Werror -I"$inc" tests/c/train_memcheck.c -ldl -lm -o "$work/train_memcheck"
@@ -94,11 +105,17 @@ set -- $args
 tso="$work/binaries/linux64/SpurGearTrain.so"
 tsteps=$((steps / 4))
 echo "== SpurGearTrain: $tsteps steps natively"
-"$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" "$5" "$6" "$7" "$8"
-echo "== SpurGearTrain: $tsteps steps under valgrind (memcheck), a planetary set included"
-valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite,indirect \
-  --errors-for-leak-kinds=definite,indirect --track-origins=yes \
-  "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" "$5" "$6" "$7" "$8"
+for set in "$5 $6 $7 $8" "$9 ${10} ${11} ${12}"; do
+  # shellcheck disable=SC2086
+  "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" $set
+done
+for set in "$5 $6 $7 $8" "$9 ${10} ${11} ${12}"; do
+  echo "== SpurGearTrain: $tsteps steps under valgrind (memcheck), the set of ${set%% *}"
+  # shellcheck disable=SC2086
+  valgrind --quiet --error-exitcode=1 --leak-check=full --show-leak-kinds=definite,indirect \
+    --errors-for-leak-kinds=definite,indirect --track-origins=yes \
+    "$work/train_memcheck" "$tso" "$1" "$tsteps" "$2" "$3" "$4" $set
+done
 echo "== valgrind (SpurGearTrain): no memory errors, no definite or indirect leaks"
 
 echo "== a gearbox FMU: package scenes/gearbox/planetary-simple.toml, compile tests/c/gearbox_memcheck.c"
