@@ -345,11 +345,17 @@ fn the_full_state_steps_a_train_as_the_compact_one() {
     let mut full = TrainRun::<Train>::new(train, &y0, 1, 0.0, 1e-8);
     let (mut n_small, mut n_full) = (0, 0);
     for k in 1..=20 {
-        small.advance(k as f64 * 5e-4, &mut |_, _| n_small += 1).unwrap();
-        full.advance(k as f64 * 5e-4, &mut |_, _| n_full += 1).unwrap();
+        small
+            .advance(k as f64 * 5e-4, &mut |_, _| n_small += 1)
+            .unwrap();
+        full.advance(k as f64 * 5e-4, &mut |_, _| n_full += 1)
+            .unwrap();
         assert_eq!(small.state().0, full.state().0, "t = {}", k as f64 * 5e-4);
     }
-    assert!(n_small > 0 && n_small == n_full, "{n_small} and {n_full} events");
+    assert!(
+        n_small > 0 && n_small == n_full,
+        "{n_small} and {n_full} events"
+    );
     assert_eq!(small.driver.stats, full.driver.stats);
 
     let sim = TrainSimulation::new(spec, tau, None, 1, 0.0, 1e-8).unwrap();
