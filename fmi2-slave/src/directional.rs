@@ -1,8 +1,9 @@
 //! Directional derivatives of Model Exchange (fmi2GetDirectionalDerivative,
 //! fmi3GetDirectionalDerivative) by central differences along the seed, generic over the model.
 //!
-//! Knowns are continuous states or real inputs; unknowns are state derivatives or any real
-//! variable the model reads at the point (outputs). The modes stay those of the current point,
+//! Knowns are continuous states (`Slave::n_directional_states`: those a master integrates,
+//! and any the model computes beyond them) or real inputs; unknowns are state derivatives or
+//! any real variable the model reads at the point (outputs). The modes stay those of the current point,
 //! so the right-hand side is smooth along the difference. The step along the seed moves no
 //! known by more than eps^(1/3) of its scale (a state's: `Slave::me_difference_scales`, which
 //! keeps the step far above the rounding of the model's arithmetic; an input's: |value|, at
@@ -33,7 +34,7 @@ pub fn derivative<S: Slave>(
     seed: &[f64],
     out: &mut [f64],
 ) -> Result<(), Failure> {
-    let n = s.n_states();
+    let n = s.n_directional_states();
     let mut x0 = vec![0.0; n];
     s.me_states(&mut x0)?;
     let mut scale = vec![1.0; n];

@@ -187,6 +187,12 @@ pub trait Slave: Clone + 'static {
     fn event_indicator_vr0(&self) -> u32 {
         Self::EVENT_INDICATOR_VR0
     }
+    /// The states directional derivatives take as knowns and give derivatives of: the
+    /// declared ones, or more where the model has states no master integrates (`state_vr` and
+    /// `derivative_vr` name them all; `me_states` and the like then fill arrays this long).
+    fn n_directional_states(&self) -> usize {
+        self.n_states()
+    }
 
     /// The name of continuous state k (messages).
     fn state_name(&self, _k: usize) -> String {

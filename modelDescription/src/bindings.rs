@@ -1,6 +1,6 @@
 //! The Rust bindings compiled into each FMU's binary (`variables.rs` in OUT_DIR).
 
-use crate::table::{format_real, guid, states, Table, Var};
+use crate::table::{format_real, guid, n_declared_states, states, Table, Var};
 use std::fmt::Write as _;
 
 /// Rust bindings: `Var` (one variant per variable, named as in the table), its metadata,
@@ -51,6 +51,12 @@ pub fn rust_bindings(t: &Table, version: &str) -> String {
         w,
         "/// The continuous states and their derivatives, in the order of the state vector.\npub const STATES: &[(Var, Var)] = &[{}];",
         pairs.join(", ")
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "/// How many of them modelDescription.xml declares, the first: what a master integrates.\npub const N_DECLARED_STATES: usize = {};",
+        n_declared_states(t)
     )
     .unwrap();
     writeln!(

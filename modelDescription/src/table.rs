@@ -57,6 +57,11 @@ pub struct ModelExchange {
     /// Name and description of each event indicator, in order (a train's are generated).
     #[serde(default)]
     pub event_indicators: Vec<[String; 2]>,
+    /// modelDescription.xml declares only the first this many states (all when absent): the
+    /// binary computes the others' derivatives too (directional derivatives read them), but no
+    /// master integrates them.
+    #[serde(default)]
+    pub declared_states: Option<usize>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -283,6 +288,30 @@ pub fn states(t: &Table) -> Vec<(&Var, &Var)> {
             Some((t.vars.iter().find(|s| &s.name == of)?, d))
         })
         .collect()
+}
+
+/// How many states modelDescription.xml declares (`ModelExchange::declared_states`).
+pub fn n_declared_states(t: &Table) -> usize {
+    let all = states(t).len();
+    let me = t.model.model_exchange.as_ref();
+    me.and_then(|m| m.declared_states)
+        .map_or(all, |n| n.min(all))
+}
+
+/// The table as modelDescription.xml declares it: the derivatives of the states beyond the
+/// declared ones are plain locals.
+pub fn as_declared(t: &Table) -> std::borrow::Cow<'_, Table> {
+    let n = n_declared_states(t);
+    if n == states(t).len() {
+        return std::borrow::Cow::Borrowed(t);
+    }
+    let mut d = t.clone();
+    d.vars
+        .iter_mut()
+        .filter(|v| v.derivative_of.is_some())
+        .skip(n)
+        .for_each(|v| v.derivative_of = None);
+    std::borrow::Cow::Owned(d)
 }
 
 /// A stable GUID: a 128-bit FNV-1a hash of the table and the crate version, so that a changed

@@ -1,12 +1,14 @@
 //! The FMI 2.0 modelDescription.xml, whose ModelStructure refers to variables by index.
 
-use crate::table::{Table, Var};
+use crate::table::{as_declared, Table, Var};
 use crate::xml_common::{elem, header_attrs, initial_unknown, units_categories_experiment};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, BytesText, Event};
 use quick_xml::Writer;
 
 /// modelDescription.xml for FMI 2.0: Co-Simulation, and Model Exchange if the table has it.
 pub fn model_description_xml(t: &Table, version: &str) -> String {
+    let declared = as_declared(t);
+    let t: &Table = &declared;
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     let mut put = |ev: Event| w.write_event(ev).expect("writing to a Vec cannot fail");
     put(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)));

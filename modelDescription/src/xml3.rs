@@ -1,6 +1,6 @@
 //! The FMI 3.0 modelDescription.xml, whose ModelStructure refers to variables by value reference.
 
-use crate::table::{Table, Var};
+use crate::table::{as_declared, Table, Var};
 use crate::xml_common::{elem, header_attrs, initial_unknown, units_categories_experiment};
 use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
@@ -21,6 +21,8 @@ fn fmi3_type(ty: &str) -> &'static str {
 /// variables of its own, the independent variable `time` (value reference 0) and the event
 /// indicators.
 pub fn model_description_xml3(t: &Table, version: &str) -> String {
+    let declared = as_declared(t);
+    let t: &Table = &declared;
     let me = t.model.model_exchange.as_ref();
     let indicators: &[[String; 2]] = me.map_or(&[], |m| &m.event_indicators);
     let indicator_vr0 = me.map_or(0, |m| m.event_indicator_vr);

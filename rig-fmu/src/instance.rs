@@ -585,7 +585,7 @@ impl<R: Rig> Slave for RigInstance<R> {
     // ---- Model Exchange: `Exchange` holds the point the master sets ---------------------------
 
     const MODEL_EXCHANGE: bool = true;
-    const N_STATES: usize = R::STATES.len();
+    const N_STATES: usize = R::N_DECLARED_STATES;
     const N_EVENT_INDICATORS: usize = R::N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = R::EVENT_INDICATOR_VR0;
 
@@ -596,6 +596,10 @@ impl<R: Rig> Slave for RigInstance<R> {
                 <R::Table as Table>::info(s.0).name
             })
             .into()
+    }
+
+    fn n_directional_states(&self) -> usize {
+        R::STATES.len()
     }
 
     const DIRECTIONAL_DERIVATIVES: bool = true;
@@ -636,13 +640,16 @@ impl<R: Rig> Slave for RigInstance<R> {
     }
 
     fn me_set_states(&mut self, x: &[f64]) -> Result<(), Failure> {
-        self.exchange()?.set_states(x);
+        let ex = self.exchange()?;
+        holds::<R>(&ex.rig, x.len())?;
+        ex.set_states(x);
         self.fresh = false;
         Ok(())
     }
 
     fn me_states(&mut self, x: &mut [f64]) -> Result<(), Failure> {
         let (m, y) = self.point()?;
+        holds::<R>(m, x.len())?;
         m.to_master(&y, x);
         Ok(())
     }
@@ -650,6 +657,7 @@ impl<R: Rig> Slave for RigInstance<R> {
     fn me_derivatives(&mut self, dx: &mut [f64]) -> Result<(), Failure> {
         if self.snap.me.is_none() {
             // Initialization mode: the derivatives at the start point.
+            holds::<R>(self.point()?.0, dx.len())?;
             let l = self.locals()?;
             for (d, &(_, der)) in dx.iter_mut().zip(R::STATES) {
                 *d = l.get_real(der).expect("a derivative is a Real local");
@@ -657,8 +665,9 @@ impl<R: Rig> Slave for RigInstance<R> {
             return Ok(());
         }
         let t = self.time();
-        self.exchange()?
-            .derivatives(dx)
+        let ex = self.exchange()?;
+        holds::<R>(&ex.rig, dx.len())?;
+        ex.derivatives(dx)
             .map_err(|e| error(format!("at t = {t} s: {e}")))
     }
 
@@ -670,6 +679,7 @@ impl<R: Rig> Slave for RigInstance<R> {
 
     fn me_nominals(&mut self, n: &mut [f64]) -> Result<(), Failure> {
         let (m, _) = self.point()?;
+        holds::<R>(m, n.len())?;
         m.nominals(n);
         Ok(())
     }
@@ -715,4 +725,18 @@ impl<R: Rig> Slave for RigInstance<R> {
         self.fresh = false;
         Ok(enter)
     }
+}
+
+/// Whether `n` master states hold the model's state: a model with more in use than the FMU
+/// declares runs in Co-Simulation (or as an FMU that declares them), never integrated in part.
+fn holds<R: Rig>(m: &Model<R>, n: usize) -> Result<(), Failure> {
+    let used = m.n_master_states();
+    if used <= n {
+        return Ok(());
+    }
+    Err(error(format!(
+        "the model has {used} continuous states in use, more than the {n} of this FMU's Model \
+         Exchange{}",
+        R::MORE_STATES_ADVICE
+    )))
 }

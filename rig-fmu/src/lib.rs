@@ -163,8 +163,13 @@ pub trait Rig: Clone + std::fmt::Debug + PartialEq + Sized + 'static {
     const STATE_FORMAT_VERSION: u32;
     const N_EVENT_INDICATORS: usize;
     const EVENT_INDICATOR_VR0: u32;
-    /// Model Exchange's states and their derivatives, as (state, derivative) locals.
+    /// The model's states and their derivatives, as (state, derivative) locals: what
+    /// directional derivatives read.
     const STATES: &'static [(Var<Self>, Var<Self>)];
+    /// How many of them modelDescription.xml declares, the first: what a master integrates.
+    const N_DECLARED_STATES: usize = Self::STATES.len();
+    /// What to do instead when a model has more states in use than that (an error's advice).
+    const MORE_STATES_ADVICE: &'static str = "";
     fn guid() -> &'static str;
 
     /// The rig's own relative tolerance (a master's tolerance can only tighten it).

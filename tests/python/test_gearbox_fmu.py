@@ -96,11 +96,11 @@ def test_the_gearbox_fmu_runs_as_spur_gear_train(name, gearbox_fmus, train_fmu_p
     pairs.append(("housing.tau", "housing.tau"))
     # Co-Simulation: the FMU's own integrator on the same model and values, to rounding.
     # Model Exchange: FMPy's CVode integrates this gearbox's n states here and SpurGearTrain's
-    # 98 there (the unused ones constant), which changes its error norm and so its steps: the
+    # 34 there (the unused ones constant), which changes its error norm and so its steps: the
     # traces agree to the integration error. CVode's weighted RMS norm averages over all
     # states, so SpurGearTrain's unused ones loosen its effective local tolerance by
-    # sqrt(98 / n) (at most 3.1 for the 10 states of lateral-pair); with the usual margin of 100
-    # of global over local error the bound is 100 rtol sqrt(98 / n) of each range, on the output
+    # sqrt(34 / n) (at most 1.8 for the 10 states of lateral-pair); with the usual margin of 100
+    # of global over local error the bound is 100 rtol sqrt(34 / n) of each range, on the output
     # grid (event rows differ).
     n_train = len(fmpy.read_model_description(str(train_fmu_path)).derivatives)
     me_bound = 100 * 1e-6 * math.sqrt(n_train / len(md.derivatives))

@@ -8,7 +8,9 @@
 use crate::gearbox::{self as file, Start};
 use crate::gearbox_vars::{self, GearKey, GearValue, GearboxVar, Target};
 use crate::instance::SpurGearTrain;
-use crate::variables::{Causality, Inputs, Params, Var, VarType, GUID, N_EVENT_INDICATORS, STATES};
+use crate::variables::{
+    Causality, Inputs, Params, Var, VarType, GUID, N_DECLARED_STATES, N_EVENT_INDICATORS, STATES,
+};
 use fmi2_slave::fmu_state::{Reader, Writer};
 use fmi2_slave::{error, Boolean, EventUpdate, Failure, Logger, Slave, ValueReference};
 use gear_model::model::train::MAX_MESHES;
@@ -20,6 +22,7 @@ pub const RESOURCE: &str = "gearbox.toml";
 /// The version the GUIDs hash with the table (as build.rs gives SpurGearTrain's).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
+/// The train's states, all of them (SpurGearTrain declares `N_DECLARED_STATES` to masters).
 const N_STATES: usize = STATES.len();
 /// Event indicators per mesh.
 const PER_MESH: usize = N_EVENT_INDICATORS / MAX_MESHES;
@@ -593,11 +596,17 @@ impl Slave for TrainFmu {
     // ---- Model Exchange: a gearbox's states and indicators are the train's first ----------
 
     const MODEL_EXCHANGE: bool = true;
-    const N_STATES: usize = N_STATES;
+    const N_STATES: usize = N_DECLARED_STATES;
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = SpurGearTrain::EVENT_INDICATOR_VR0;
 
     fn n_states(&self) -> usize {
+        let own = |o: &Own| o.fmu.n_states();
+        self.gearbox.as_deref().map_or(N_DECLARED_STATES, own)
+    }
+
+    /// SpurGearTrain's directional derivatives cover every coordinate; a gearbox's, its own.
+    fn n_directional_states(&self) -> usize {
         self.gearbox.as_ref().map_or(N_STATES, |o| o.fmu.n_states())
     }
 

@@ -8,7 +8,7 @@
 use crate::build::{self, element, var};
 use crate::variables::{
     Calculated, Causality, Locals, Outputs, Params, Var, GUID, LOG_CATEGORIES, MODEL_IDENTIFIER,
-    N_EVENT_INDICATORS, STATES,
+    N_DECLARED_STATES, N_EVENT_INDICATORS, STATES,
 };
 use fmi2_slave::fmu_state::{Reader, Writer};
 use gear_model::driver::exchange::{Exchange, ExchangeRig};
@@ -18,12 +18,15 @@ use gear_model::driver::{Method, Stats};
 use gear_model::model::mesh::LawOutOfRange;
 use gear_model::model::statistics::{Statistics, Summary};
 use gear_model::model::train::statics::{static_start, StartDeflections};
-use gear_model::model::train::{self, State, Train, MAX_BODIES, N_MARGINS, N_MASTER_STATES};
+use gear_model::model::train::{
+    self, State, Train, MAX_BODIES, NY_COMPACT, N_MARGINS, N_MASTER_STATES,
+};
 use gear_model::variables as single;
 use rig_fmu::{Rig, Run};
 
 // The table's states and event indicators are the model's, in its order.
 const _: () = assert!(STATES.len() == N_MASTER_STATES);
+const _: () = assert!(N_DECLARED_STATES == NY_COMPACT);
 const _: () = assert!(N_EVENT_INDICATORS == N_MARGINS);
 
 pub use fmi2_slave::instance::{error, Failure};
@@ -324,6 +327,10 @@ impl Rig for TrainRig {
     const N_EVENT_INDICATORS: usize = N_EVENT_INDICATORS;
     const EVENT_INDICATOR_VR0: u32 = crate::variables::EVENT_INDICATOR_VR0;
     const STATES: &'static [(Var, Var)] = STATES;
+    const N_DECLARED_STATES: usize = N_DECLARED_STATES;
+    const MORE_STATES_ADVICE: &'static str = " (16 coordinates, one per body): a train with \
+        lateral bodies beyond that runs in Co-Simulation, or in Model Exchange as a gearbox FMU, \
+        which declares its own states (docs/gearbox-file.md)";
 
     fn guid() -> &'static str {
         GUID

@@ -23,6 +23,8 @@ pub const ME_STATE: [usize; NY - 1] = [THETA_A, DTE, W_A, DDTE, W_EXT, W_LOSS, X
 /// map onto the rig's state, their scales, and new loads from the master.
 pub trait ExchangeRig: System<Error = LawOutOfRange, Report = EventReport> {
     type Loads: PartialEq;
+    /// How many of the master's states are in use: an array of fewer cannot hold the state.
+    fn n_master_states(&self) -> usize;
     /// The master's states (or their rates, from the state's rates) from the rig's state.
     fn to_master(&self, y: &Self::State, x: &mut [f64]);
     /// The rig's state from the master's states (components the master does not see keep
@@ -53,6 +55,9 @@ pub trait ExchangeRig: System<Error = LawOutOfRange, Report = EventReport> {
 
 impl ExchangeRig for PaperRig {
     type Loads = Loads;
+    fn n_master_states(&self) -> usize {
+        ME_STATE.len()
+    }
     fn to_master(&self, y: &State, x: &mut [f64]) {
         for (xj, &i) in x.iter_mut().zip(&ME_STATE) {
             *xj = y[i];

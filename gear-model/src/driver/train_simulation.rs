@@ -392,6 +392,9 @@ impl TrainSimulation {
 /// Model Exchange of the train: the master integrates the states `Train::master_index` lists.
 impl ExchangeRig for Train {
     type Loads = TrainLoads;
+    fn n_master_states(&self) -> usize {
+        self.dim()
+    }
     fn to_master(&self, y: &State, x: &mut [f64]) {
         for (j, xj) in x.iter_mut().enumerate() {
             *xj = self.master_index(j).map_or(0.0, |i| y[i]);

@@ -137,6 +137,8 @@ fn table(fmu: &Arc<GearboxFmu>, text: &str, train: &Table) -> Table {
         );
     }
     if let Some(me) = &mut t.model.model_exchange {
+        // The gearbox's table holds its own states only: it declares them all.
+        me.declared_states = None;
         let per_mesh = me.event_indicators.len() / 16;
         me.event_indicators = g
             .meshes

@@ -47,8 +47,9 @@ pub const W_LOSS: usize = 1;
 /// instead: each mesh's functions in use, one after the other (`Train::event_of`).
 pub const N_MARGINS: usize = MAX_MESHES * N_EVENTS;
 
-/// The states a Model Exchange master integrates: the state itself, for the full capacity
-/// (coordinates not in use read 0). A gearbox FMU declares those of its train.
+/// The states Model Exchange reads: the state itself, for the full capacity (coordinates not
+/// in use read 0). SpurGearTrain declares the compact state's to masters (`NY_COMPACT`), a
+/// gearbox FMU those of its train; directional derivatives read them all.
 pub const N_MASTER_STATES: usize = NY;
 
 /// Coordinate k's place in the state (its rate follows it).
