@@ -295,18 +295,17 @@ def test_modes_of_a_pinion_on_its_bearing(train_fmu_path):
 def test_lin_parker_frequencies_and_multiplicities_through_the_fmu(train_fmu_path):
     """lateral.md section 7 through the FMU: Lin & Parker's (1999) 4-planet set with every member
     lateral (7 bodies, 21 coordinates: past the compact state, on the full one) and lumped meshes,
-    linearized by the FMU's directional derivatives at the balance (the reference's static start:
-    start values, lateral_ref.static_start), read by tools/modes.py.
+    linearized by the FMU's directional derivatives at the balance its static start finds, read
+    by tools/modes.py.
     The 21 frequencies match the published ones to 0.1 % (the reference's own, same parameters,
     reach 0.037 %: test_lateral_ref), and the modal structure holds: a rigid rotation, 5
     rotational modes, 6 double translational ones and N - 3 = 1 copy of each of the 3 planet
     modes. The Jacobian of a linear law is exact to about 1e-8 (central differences of an affine
     map, rounding only), so a double mode's two frequencies agree to 1e-6."""
-    from reference_model import lateral_ref
     from test_lateral_ref import LIN_PARKER_HZ, lin_parker
 
-    sv = lateral_ref.static_start(lin_parker())
-    ms = MODES.modes(MODES.linearize(train_fmu_path, sv, static_start=False), sv)
+    sv = lin_parker()
+    ms = MODES.modes(MODES.linearize(train_fmu_path, sv), sv)
     assert len(ms) == 21 and ms[0]["kind"] == "rigid rotation", [m["kind"] for m in ms]
     groups = MODES.multiplicities(ms[1:], rel=1e-6)
     want = sorted([(f, 1, "rotational") for f in LIN_PARKER_HZ["rotational"][1:]]

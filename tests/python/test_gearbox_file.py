@@ -95,3 +95,45 @@ def test_static_start_through_the_fmu(name, train_fmu_path):
     for q, bound in tol.items():
         err = np.max(np.abs(runs[0][q] - runs[1][q]))
         assert err <= bound, f"{name} {q}: {err:.3g} > {bound}"
+
+
+def _all_lateral_four_planets():
+    """scenes/train/lateral-four-planet.toml with sun, ring and carrier lateral too (21
+    coordinates, each on a 1e8 N/m bearing damped at 5 % of critical), at its speeds."""
+    import math
+    import tomllib
+
+    sv = tomllib.loads((ROOT / "scenes/train/lateral-four-planet.toml").read_text())["start_values"]
+    for i in (1, 2, 3):
+        m, k = float(sv[f"body[{i}].m"]), 1e8
+        c = 0.1 * math.sqrt(k * m)
+        sv.update({f"body[{i}].lateral": True, f"body[{i}].k_x": k, f"body[{i}].k_y": k,
+                   f"body[{i}].c_x": c, f"body[{i}].c_y": c})
+    return sv
+
+
+@pytest.mark.parametrize("name", ["lin-parker", "all-lateral-four-planet"])
+def test_static_start_of_lateral_sets_as_the_reference(name, train_fmu_path):
+    """The FMU's static start on two sets with every member lateral, against the independent
+    reference's (lateral_ref.static_start): Lin & Parker's set at rest under 1 N.m (backlash 0,
+    deflections of ~15 nm, where the loops' closing meshes are resolved to the rounding of the
+    bodies' positions, 1e-9 of a deflection) and the 4-planet set at 1104 rad/s (centrifugal
+    loads). The static start accepts a balance whose accelerations are below 1e-6 of the
+    elastic terms once its steps stall at rounding (statics.rs NOISE_TOL), so the deflections
+    and displacements agree within 1e-6 of the largest mesh deflection."""
+    import fmpy
+    from reference_model import lateral_ref
+    from test_lateral_ref import lin_parker
+
+    sv = lin_parker() if name == "lin-parker" else _all_lateral_four_planets()
+    sv = {k: v for k, v in sv.items() if not k.endswith(("dte_start", "twist_start", "x_start", "y_start"))}
+    ref = lateral_ref.static_start(sv)
+    n, nm = int(sv["n_bodies"]), int(sv["n_meshes"])
+    out = [f"mesh[{m}].dte" for m in range(1, nm + 1)]
+    out += [f"body[{i}].{c}" for i in range(1, n + 1) for c in "xy"]
+    runs = [fmpy.simulate_fmu(str(train_fmu_path), stop_time=1e-5, output_interval=1e-5, output=out,
+                              start_values=v) for v in ({**sv, "static_start": True}, ref)]
+    scale = max(abs(runs[1][f"mesh[{m}].dte"][0]) for m in range(1, nm + 1))
+    for q in out:
+        err = abs(runs[0][q][0] - runs[1][q][0])
+        assert err <= 1e-6 * scale, f"{name} {q}: {runs[0][q][0]:.12g} vs {runs[1][q][0]:.12g} (scale {scale:.3g})"

@@ -27,12 +27,17 @@ const DELTA_GUESS: f64 = 1e-6;
 /// nanometre for one near 0): far below what the forces resolve.
 const STEP_TOL: f64 = 1e-10;
 const MAX_ITER: usize = 40;
-/// Balanced when every edge's acceleration is below this fraction of what its own deflection
-/// gives it: the forces then balance to far better than the contact laws' own accuracy.
+/// Balanced when every edge's acceleration is below this fraction of what the deflections give
+/// it: the forces then balance to far better than the contact laws' own accuracy.
 const BALANCE_TOL: f64 = 1e-10;
 /// Where rounding in the other edges' forces keeps a lightly loaded edge from that, the steps
 /// stand still with its residual at this fraction.
 const NOISE_TOL: f64 = 1e-6;
+/// Or they stall: a loop's closing mesh has its deflection from the bodies' positions, resolved
+/// to the rounding of a radius (~1e-17 m), which is 1e-9 of a deflection of nanometres (Lin &
+/// Parker's set at 1 N.m). Steps below this fraction of their unknowns that no longer halve are
+/// that rounding: the steps stand still there.
+const STALL_TOL: f64 = 1e-6;
 
 /// The start deflections a static start found: every mesh's `dte_start` and every shaft's
 /// `twist_start` as the train was built with them. A saved FMU state keeps them, since
@@ -256,6 +261,7 @@ fn newton(
                 .max(f64::MIN_POSITIVE)
         })
         .collect();
+    let mut last_moved = f64::INFINITY;
     for _ in 0..MAX_ITER {
         let mut jac = DMatrix::zeros(n, n);
         for k in 0..n {
@@ -289,13 +295,22 @@ fn newton(
                 Err(e) => return Err(e),
             }
         };
-        let still =
-            (0..n).all(|k| (xn[k] - x[k]).abs() <= STEP_TOL * (x[k] - edge(k)).abs().max(1e-9));
+        let moved = (0..n)
+            .map(|k| (xn[k] - x[k]).abs() / (x[k] - edge(k)).abs().max(1e-9))
+            .fold(0.0, f64::max);
+        let still = moved <= STEP_TOL || moved <= STALL_TOL && moved >= 0.5 * last_moved;
+        last_moved = moved;
         x = xn;
         r = rn;
-        // Against the acceleration its own deflection gives the edge (the elastic term), or
-        // once the steps stand still at rounding, also against its size unloaded.
-        let own = |k: usize| (jac[(k, k)] * (x[k] - edge(k))).abs();
+        // Against the accelerations the deflections give the edge (the elastic terms that
+        // balance in its equation: a lateral body at rest on its bearing has none of its
+        // own, but the meshes' forces on it), or once the steps stand still at rounding, also
+        // against its size unloaded.
+        let own = |k: usize| {
+            (0..n)
+                .map(|j| (jac[(k, j)] * (x[j] - edge(j))).abs())
+                .sum::<f64>()
+        };
         if (0..n).all(|k| r[k].abs() <= BALANCE_TOL * own(k))
             || still && (0..n).all(|k| r[k].abs() <= NOISE_TOL * own(k).max(scale[k]))
         {
