@@ -141,6 +141,25 @@ impl Fmu {
         }
         worst.get()
     }
+    /// The planetary set with a floating sun (lateral, no bearing: the three planets hold it)
+    /// and the planets lateral on their pins (1e8 N/m, damped): 5 rotations and 8 translations.
+    fn lateral_planetary(&self) -> Status {
+        let mut worst = self.planetary();
+        let mut ok = |s: Status| {
+            if s != Status::Ok && worst == Status::Ok {
+                worst = s;
+            }
+        };
+        ok(self.set_bool("body[1].lateral", true));
+        ok(self.set_real("body[1].m", 0.5));
+        for b in 3..=5 {
+            ok(self.set_bool(&format!("body[{b}].lateral"), true));
+            for (key, x) in [("k_x", 1e8), ("k_y", 1e8), ("c_x", 550.0), ("c_y", 550.0)] {
+                ok(self.set_real(&format!("body[{b}].{key}"), x));
+            }
+        }
+        worst
+    }
     fn real(&self, name: &str) -> f64 {
         let mut x = f64::NAN;
         assert_eq!(
@@ -299,8 +318,20 @@ fn a_late_clock_integrates_as_from_zero() {
 
 /// The planetary set's meshes and bodies after each of `steps` steps.
 fn run_planetary(steps: usize) -> Vec<f64> {
+    run_set(Fmu::planetary, steps, &[])
+}
+
+/// The lateral planetary set's after each of `steps` steps, its translations and bearing
+/// forces too.
+fn run_lateral(steps: usize) -> Vec<f64> {
+    let lateral = ["body[1].x", "body[3].y", "body[4].Fx", "housing.Fy"];
+    run_set(Fmu::lateral_planetary, steps, &lateral)
+}
+
+/// The set `setup` makes, run for `steps` steps: its meshes, bodies and `more` after each.
+fn run_set(setup: fn(&Fmu) -> Status, steps: usize, more: &[&str]) -> Vec<f64> {
     let f = Fmu::new();
-    assert_eq!(f.planetary(), Status::Ok, "{:?}", f.errors());
+    assert_eq!(setup(&f), Status::Ok, "{:?}", f.errors());
     assert_eq!(f.init(1.0), Status::Ok, "{:?}", f.errors());
     let h = 1e-4;
     let mut out = Vec::new();
@@ -316,34 +347,25 @@ fn run_planetary(steps: usize) -> Vec<f64> {
             ]
             .map(|n| f.real(n)),
         );
+        out.extend(more.iter().map(|n| f.real(n)));
     }
     assert!(out.iter().all(|x| x.is_finite()));
     out
 }
 
-/// Instances share nothing: four on four threads, two with the default train and two with a
-/// planetary set, give the sequential runs' numbers bit for bit.
+/// Instances share nothing: six on six threads, two each with the default train, a planetary
+/// set and a lateral planetary set, give the sequential runs' numbers bit for bit.
 #[test]
 fn instances_on_threads_agree_bit_for_bit() {
-    let sequential = (run_default(200), run_planetary(100));
-    let handles: Vec<_> = (0..4)
-        .map(|k| {
-            std::thread::spawn(move || {
-                if k % 2 == 0 {
-                    (run_default(200), vec![])
-                } else {
-                    (vec![], run_planetary(100))
-                }
-            })
-        })
-        .collect();
+    let runs: [fn() -> Vec<f64>; 3] = [
+        || run_default(200),
+        || run_planetary(100),
+        || run_lateral(100),
+    ];
+    let sequential: Vec<Vec<f64>> = runs.iter().map(|r| r()).collect();
+    let handles: Vec<_> = (0..6).map(|k| std::thread::spawn(runs[k % 3])).collect();
     for (k, h) in handles.into_iter().enumerate() {
-        let (d, p) = h.join().unwrap();
-        if k % 2 == 0 {
-            assert_eq!(d, sequential.0);
-        } else {
-            assert_eq!(p, sequential.1);
-        }
+        assert_eq!(h.join().unwrap(), sequential[k % 3], "set {}", k % 3);
     }
 }
 
@@ -402,6 +424,42 @@ fn fmu_states_round_trip_through_their_bytes() {
     in_lockstep(&a, &b, 50, 150, h);
 }
 
+/// The lateral planetary set under abuse: its FMU state continues bit for bit in another
+/// instance (after a corrupted copy is refused), and bad lateral values are refused at
+/// initialization naming the body and the value.
+#[test]
+fn a_lateral_planetary_set_survives_its_fmu_state_and_refuses_bad_values() {
+    let (a, b) = (Fmu::new(), Fmu::new());
+    for f in [&a, &b] {
+        assert_eq!(f.lateral_planetary(), Status::Ok, "{:?}", f.errors());
+        assert_eq!(f.init(1.0), Status::Ok, "{:?}", f.errors());
+    }
+    let h = 1e-4;
+    for k in 0..50 {
+        assert_eq!(a.step(k as f64 * h, h), Status::Ok, "{:?}", a.errors());
+    }
+    transfer_state(&a, &b);
+    in_lockstep(&a, &b, 50, 120, h);
+    assert_eq!(a.real("body[3].x").to_bits(), b.real("body[3].x").to_bits());
+    for (key, x, want) in [
+        ("body[3].k_x", -1e8, "-100000000"),
+        ("body[4].c_y", -5.0, "-5"),
+        ("body[1].m", 0.0, "body[1]"),
+    ] {
+        let f = Fmu::new();
+        assert_eq!(f.lateral_planetary(), Status::Ok);
+        let set = f.set_real(key, x);
+        let status = if set == Status::Ok { f.init(1.0) } else { set };
+        let body = &key[..key.find('.').unwrap()];
+        assert_eq!(status, Status::Error, "{key} = {x}");
+        let said = f.errors().join(" ");
+        assert!(
+            said.contains(body) && said.contains(want),
+            "{key} = {x}: {said}"
+        );
+    }
+}
+
 /// A static start's state keeps the deflections it started from: set in an instance that
 /// started under another drive torque, it continues exactly as the original (solving the
 /// balance again from the state's inputs would start elsewhere).
@@ -433,6 +491,8 @@ enum Call {
     Reset,
     /// Every parameter of a planetary set (`Fmu::planetary`).
     Planetary,
+    /// The same with a floating sun and lateral planets (`Fmu::lateral_planetary`).
+    LateralPlanetary,
 }
 
 fn call() -> impl Strategy<Value = Call> {
@@ -449,6 +509,10 @@ fn call() -> impl Strategy<Value = Call> {
         "mesh[2].dte_start",
         "body[1].w_start",
         "mesh[2].center_angle",
+        "body[3].k_x",
+        "body[1].c_y",
+        "body[4].m",
+        "body[5].x_start",
     ]);
     let ints = prop::sample::select(vec![
         "n_bodies",
@@ -471,6 +535,10 @@ fn call() -> impl Strategy<Value = Call> {
         "body[8].theta",
         "housing.tau",
         "mesh[4].F_fwd",
+        "body[3].x",
+        "body[1].Fy",
+        "housing.Fx",
+        "mesh[1].delta_lat",
     ]);
     let value = prop_oneof![
         Just(f64::NAN),
@@ -488,6 +556,7 @@ fn call() -> impl Strategy<Value = Call> {
         outputs.prop_map(Call::Get),
         Just(Call::Reset),
         Just(Call::Planetary),
+        Just(Call::LateralPlanetary),
     ]
 }
 
@@ -532,6 +601,7 @@ proptest! {
                     unsafe { fmi2Reset(f.c) }
                 }
                 Call::Planetary => f.planetary(),
+                Call::LateralPlanetary => f.lateral_planetary(),
             };
             prop_assert!(matches!(status, Status::Ok | Status::Warning | Status::Discard | Status::Error), "{status:?}");
         }
@@ -549,14 +619,14 @@ fn declared() -> &'static [(Var, Var)] {
 
 /// An initialized Model Exchange instance of the default train, in continuous-time mode.
 fn model_exchange() -> Fmu {
-    model_exchange_of(false)
+    model_exchange_of(None)
 }
 
-/// An instance in continuous-time mode: the default train, or the planetary set.
-fn model_exchange_of(planetary: bool) -> Fmu {
+/// An instance in continuous-time mode: the default train, or the set `setup` makes.
+fn model_exchange_of(setup: Option<fn(&Fmu) -> Status>) -> Fmu {
     let f = Fmu::of_type(0);
-    if planetary {
-        assert_eq!(f.planetary(), Status::Ok, "{:?}", f.errors());
+    if let Some(setup) = setup {
+        assert_eq!(setup(&f), Status::Ok, "{:?}", f.errors());
     }
     assert_eq!(f.init(1.0), Status::Ok, "{:?}", f.errors());
     let mut info = fmi2_slave::EventInfo::default();
@@ -814,10 +884,10 @@ proptest! {
     /// panic across the boundary, and nothing read with fmi2OK is NaN or infinite.
     #[test]
     fn random_model_exchange_sequences_never_crash(
-        planetary in any::<bool>(),
+        set in prop::sample::select(vec![None, Some(Fmu::planetary as fn(&Fmu) -> Status), Some(Fmu::lateral_planetary)]),
         calls in prop::collection::vec(me_call(), 1..60),
     ) {
-        let f = model_exchange_of(planetary);
+        let f = model_exchange_of(set);
         let n = N_DECLARED_STATES;
         let mut t = 0.0;
         for c in calls {
