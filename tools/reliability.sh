@@ -88,7 +88,7 @@ def planetary(scene, name):
         for key, x in scene.items():
             f.write(f"{kind[key]} {vr[key]} {float(x)!r}\n")
     last = max(k for k in scene if k.endswith(".orbit_angle"))
-    skew = scene[last] + 2 * math.pi / scene.get("mesh[1].zA", 21) / 3
+    skew = scene[last] + 2 * math.pi / scene["mesh[1].zA"] / 3
     return [f"{work}/{name}.txt", vr["mesh[2].dte"], vr[last], repr(skew)]
 
 

@@ -161,13 +161,8 @@ impl LateralConfig {
         if bodies.is_empty() {
             return Ok(None);
         }
-        if first + 2 * bodies.len() > MAX_COORDS {
-            return Err(ModelError::new(format!(
-                "{} lateral bodies need {} coordinates with the train's {first} rotations: at most {MAX_COORDS} fit (lateral.md; make fewer bodies lateral, e.g. the planets only)",
-                bodies.len(),
-                first + 2 * bodies.len()
-            )));
-        }
+        // One rotation per body and two translations per lateral body always fit.
+        debug_assert!(first + 2 * bodies.len() <= MAX_COORDS);
         for l in 0..bodies.len() {
             let Some(c) = bodies[l].carrier else { continue };
             bodies[l].carrier_lat = of_body[c];
