@@ -56,7 +56,9 @@ impl GearMesh {
             return self.rigid_event_active(e);
         }
         match e {
-            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => self.present[k],
+            EventFn::Top(k) | EventFn::Bottom(k) | EventFn::Gate(k) => {
+                self.present[k] && !self.pairs_untracked()
+            }
             EventFn::Pen(f) => self.dev.is_none() && self.flank_present(f),
             // A release matters only while the flank touches; its sign is set afresh at onset.
             EventFn::Rel(f) => {
@@ -288,9 +290,10 @@ impl GearMesh {
                 None => (1.0, 0.0),
             };
         };
+        let untracked = self.pairs_untracked();
         for k in 0..SLOTS {
             let i = EventFn::Top(k).index();
-            if !self.present[k] {
+            if !self.present[k] || untracked {
                 (i..i + 3).for_each(|j| put(j, None));
                 continue;
             }
@@ -500,10 +503,7 @@ impl GearMesh {
                 )
             }
         };
-        // A constant lumped spring does not see which pairs it stands for.
-        let constant_spring = self.lumped().is_some_and(|l| !l.varies)
-            && matches!(e, EventFn::Top(_) | EventFn::Bottom(_) | EventFn::Gate(_));
-        let smooth = idle_before && idle_jump(self) || constant_spring;
+        let smooth = idle_before && idle_jump(self);
         EventReport { what, smooth }
     }
 

@@ -1,17 +1,43 @@
 //! The lumped mesh (`contact_model = 4`, lateral.md §4): one linear spring-damper along each
-//! flank's line of action. The teeth are not tracked for the force; the objects still follow
-//! the pairs, gated at their rigid positions, to count them for the square wave and to share
-//! the flank's force among them in the readout.
+//! flank's line of action. The teeth are not tracked for the force. With the square wave the
+//! objects follow the pairs, gated at their rigid positions, to count them; with a constant
+//! stiffness they are not tracked at all (no pair-switch events: they would be most of a run's
+//! events and change nothing), and the readout places the pairs on the segment from the
+//! position when it shares the flank's force among them.
 
 use super::forces::{MeshLoad, SlotForces};
-use super::{GearMesh, Kin};
-use crate::model::contact::{slot_flank, Flank, SLOTS};
+use super::{GearMesh, Kin, THETA_A};
+use crate::model::contact::{self, slot_flank, Flank, SLOTS};
 use crate::model::pair::Lumped;
 use crate::model::rig;
 
 const FLANKS: [Flank; 2] = [Flank::Forward, Flank::Backward];
 
 impl GearMesh {
+    /// A lumped mesh of constant stiffness: its contact objects stay where they started.
+    #[inline]
+    pub(crate) fn pairs_untracked(&self) -> bool {
+        self.lumped().is_some_and(|l| !l.varies)
+    }
+
+    /// Pair k's contact point at y: within the window of its untracked object.
+    pub(crate) fn placed_contact(&self, k: usize, y: &Kin) -> f64 {
+        let dir = slot_flank(k).dir();
+        let sigma = contact::wrap_into_window(&self.geo, self.sigma[k], dir, y[THETA_A]);
+        sigma + dir * self.geo.r_ab * y[THETA_A]
+    }
+
+    /// Whether pair k is on the contact segment at y (its gate, `events.rs`, as a formula of
+    /// the position where the objects are not tracked).
+    pub(crate) fn gated_at(&self, k: usize, y: &Kin) -> bool {
+        if !self.pairs_untracked() {
+            return self.gated(k);
+        }
+        let delta = self.flank_delta(slot_flank(k), y).0;
+        self.present[k]
+            && self.placed_contact(k, y) - self.gate_shift * delta.max(0.0) >= self.geo.s_a
+    }
+
     /// The pairs of flank f on the contact segment.
     fn gated_on(&self, f: Flank) -> usize {
         (0..SLOTS)
@@ -62,8 +88,9 @@ impl GearMesh {
                 m.f_by += fy;
             }
             if let Some(p) = pairs.as_deref_mut() {
-                let n = self.gated_on(f) as f64;
-                for k_slot in (0..SLOTS).filter(|&s| slot_flank(s) == f && self.gated(s)) {
+                let on = |s: &usize| slot_flank(*s) == f && self.gated_at(*s, y);
+                let n = (0..SLOTS).filter(on).count() as f64;
+                for k_slot in (0..SLOTS).filter(on) {
                     p[k_slot] = (force / n, 0.0, k * delta / n);
                 }
             }

@@ -485,6 +485,11 @@ impl GearMesh {
 
     /// Whether any pair carries force, and whether a backward one does (fixed between events).
     pub fn contact_modes(&self) -> (bool, bool) {
+        if self.pairs_untracked() {
+            // A pair is always on the segment (a contact ratio above one): a flank on carries.
+            let backward = self.flank_present(Flank::Backward) && self.flank_on(Flank::Backward);
+            return (self.flank_on(Flank::Forward) || backward, backward);
+        }
         let any = (0..SLOTS).any(|k| self.carrying(k));
         let backward = (0..SLOTS).any(|k| slot_flank(k) == Flank::Backward && self.carrying(k));
         (any, backward)

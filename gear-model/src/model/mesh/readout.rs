@@ -2,8 +2,8 @@
 //! the torques, the force on B, the mesh stiffness and the pairs' elastic energy.
 
 use super::forces::{LawOutOfRange, MeshLoad, SlotForces};
-use super::{GearMesh, Kin, THETA_A};
-use crate::model::contact::{self, slot_flank, Flank, SLOTS};
+use super::{GearMesh, Kin};
+use crate::model::contact::{slot_flank, Flank, SLOTS};
 use crate::model::johnson::OutOfRange;
 use crate::model::law::ContactLaw;
 use crate::model::rig;
@@ -42,25 +42,28 @@ impl GearMesh {
     /// step, and a call costs ~60 instructions.
     #[inline(always)]
     pub fn readout_from(&self, y: &Kin, pairs: &SlotForces, load: &MeshLoad) -> MeshReadout {
-        let g = &self.geo;
         let mut s = [0.0; SLOTS];
         let (mut flank_force, mut flank_pairs) = ([0.0; 2], [0; 2]);
         let parked = [self.parked(Flank::Forward), self.parked(Flank::Backward)];
         let mut force_on_b = [0.0; 2];
         let (mut k_mesh, mut flank_stiffness) = (0.0, [None; 2]);
         let law = self.compliance();
+        let untracked = self.pairs_untracked();
         for k in 0..SLOTS {
             if !self.present[k] {
                 continue;
             }
-            s[k] = if parked[slot_flank(k) as usize] {
-                let dir = slot_flank(k).dir();
-                contact::wrap_into_window(g, self.sigma[k], dir, y[THETA_A])
-                    + dir * g.r_ab * y[THETA_A]
+            s[k] = if parked[slot_flank(k) as usize] || untracked {
+                self.placed_contact(k, y)
             } else {
                 self.s_contact(k, y)
             };
-            if self.carrying(k) {
+            let carrying = if untracked {
+                self.flank_on(slot_flank(k)) && self.gated_at(k, y)
+            } else {
+                self.carrying(k)
+            };
+            if carrying {
                 let f = slot_flank(k);
                 flank_force[f as usize] += pairs[k].0;
                 flank_pairs[f as usize] += 1;
