@@ -3,8 +3,8 @@
 //!
 //! Knowns are continuous states (`Slave::n_directional_states`: those a master integrates,
 //! and any the model computes beyond them) or real inputs; unknowns are state derivatives or
-//! any real variable the model reads at the point (outputs). The modes stay those of the current point,
-//! so the right-hand side is smooth along the difference. The step along the seed moves no
+//! any real variable the model reads at the point (outputs). The modes stay those of the
+//! current point, so the right-hand side is smooth along the difference. The step along the seed moves no
 //! known by more than eps^(1/3) of its scale (a state's: `Slave::me_difference_scales`, which
 //! keeps the step far above the rounding of the model's arithmetic; an input's: |value|, at
 //! least 1): central differences then err by about eps^(2/3) ~ 4e-11 of the unknown's

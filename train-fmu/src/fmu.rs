@@ -607,7 +607,8 @@ impl Slave for TrainFmu {
 
     /// SpurGearTrain's directional derivatives cover every coordinate; a gearbox's, its own.
     fn n_directional_states(&self) -> usize {
-        self.gearbox.as_ref().map_or(N_STATES, |o| o.fmu.n_states())
+        let own = |o: &Own| o.fmu.n_states();
+        self.gearbox.as_deref().map_or(N_STATES, own)
     }
 
     fn n_event_indicators(&self) -> usize {
