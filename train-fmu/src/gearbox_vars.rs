@@ -105,6 +105,19 @@ impl GearKey {
         }
     }
 
+    /// Whether `f` is `mesh_field(side)`, without building it: `variables` asks this of
+    /// every mesh field of the table at each instantiation.
+    fn is_mesh_field(self, side: &str, f: &str) -> bool {
+        match self {
+            Z | X => f.strip_suffix(side) == Some(self.name()),
+            Module | PressureAngle | Width | Addendum | Dedendum | RackTipRadius => {
+                f == self.name()
+            }
+            TipDiameter => f == "addendum",
+            _ => f.strip_suffix(side).and_then(|r| r.strip_suffix('_')) == Some(self.name()),
+        }
+    }
+
     /// The pair parameter it sets on a mesh where the gear is `side` ("A" or "B").
     pub fn mesh_field(self, side: &str) -> String {
         match self {
@@ -367,7 +380,7 @@ pub fn variables(g: &Gearbox) -> Vec<GearboxVar> {
 fn is_gear_field(f: &str) -> bool {
     let keys = GEAR_KEYS.iter().chain(&[X, Module, PressureAngle]);
     keys.into_iter()
-        .any(|k| ["A", "B"].iter().any(|s| k.mesh_field(s) == f))
+        .any(|k| ["A", "B"].iter().any(|s| k.is_mesh_field(s, f)))
 }
 
 /// A gear's variables: its keys, on its first mesh.
@@ -406,4 +419,34 @@ fn gear_vars(g: &Gearbox, k: usize, gear: &Gear) -> Vec<GearboxVar> {
                 .then(|| "tip diameter of the gear (sets the addendum of its meshes) [m]".into()),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn is_mesh_field_agrees_with_mesh_field_on_every_field_of_a_mesh() {
+        let keys = GEAR_KEYS
+            .iter()
+            .chain(&[X, Module, PressureAngle, TipDiameter]);
+        let fields: Vec<&str> = VARIABLES
+            .iter()
+            .filter_map(|i| element(i.name))
+            .filter(|&(kind, m, _)| kind == "mesh" && m == 1)
+            .map(|(_, _, f)| f)
+            .collect();
+        let mut matched = 0;
+        for &k in keys {
+            for side in ["A", "B"] {
+                for f in &fields {
+                    let expected = k.mesh_field(side) == *f;
+                    assert_eq!(k.is_mesh_field(side, f), expected, "{k:?} {side} {f}");
+                    matched += expected as usize;
+                }
+            }
+        }
+        // Every key names one pair parameter on either side.
+        assert_eq!(matched, 2 * (GEAR_KEYS.len() + 4));
+    }
 }
