@@ -29,8 +29,13 @@ impl Train {
     fn event_margins_in<const N: usize>(&self, y: &[f64], out: &mut [f64]) {
         let b = self.bodies_in::<N>(y);
         let start = &self.cfg.event_start;
+        let turns = self.cfg.lateral.is_some().then(|| self.carrier_turns(&b));
         for (m, mesh) in self.meshes.iter().enumerate() {
-            mesh.event_margins(&self.kin(m, y, &b), &mut out[start[m]..start[m + 1]]);
+            let k = match &turns {
+                Some(t) => self.kin_turned(m, y, &b, t).0,
+                None => self.kin(m, y, &b),
+            };
+            mesh.event_margins(&k, &mut out[start[m]..start[m + 1]]);
         }
     }
 
@@ -54,12 +59,15 @@ impl Train {
         let b = self.bodies_in::<N>(y);
         let db = self.bodies_in::<N>(dy);
         let start = &self.cfg.event_start;
-        let lateral = self.cfg.lateral.is_some();
+        let turns = self.cfg.lateral.is_some().then(|| self.carrier_turns(&b));
         for (m, mesh) in self.meshes.iter().enumerate() {
             let r = start[m]..start[m + 1];
-            let (k, dk) = match lateral {
-                true => (self.kin(m, y, &b), self.kin_rate(m, (y, &b), (dy, &db))),
-                false => (
+            let (k, dk) = match &turns {
+                Some(t) => (
+                    self.kin_turned(m, y, &b, t).0,
+                    self.kin_rate(m, (y, &b), (dy, &db), t),
+                ),
+                None => (
                     self.kin_of::<N, false>(m, y, &b),
                     self.kin_of::<N, false>(m, dy, &db),
                 ),

@@ -72,7 +72,13 @@ pub(super) struct LateralConfig {
     pub of_body: Vec<Option<usize>>,
     /// Each mesh's ends, A then B.
     ends: Vec<[End; 2]>,
+    /// The carriers whose angle turns a lateral vector: of a mesh whose centres move, of a
+    /// lateral planet, or lateral with planets (`Train::carrier_turns`).
+    turning: Vec<usize>,
 }
+
+/// The sine and cosine of each carrier's angle in `LateralConfig::turning`, by body.
+pub(super) type Turns<const N: usize> = [(f64, f64); N];
 
 /// The quarter turn counter-clockwise.
 #[inline(always)]
@@ -184,7 +190,7 @@ impl LateralConfig {
                 )));
             }
         }
-        let ends = spec
+        let ends: Vec<[End; 2]> = spec
             .meshes
             .iter()
             .enumerate()
@@ -206,10 +212,18 @@ impl LateralConfig {
                 })
             })
             .collect();
+        let mut turning: Vec<usize> = (0..spec.meshes.len())
+            .filter(|&m| ends[m].iter().any(End::moves))
+            .filter_map(|m| frames[m].carrier)
+            .chain(bodies.iter().filter_map(|lb| lb.carrier))
+            .collect();
+        turning.sort_unstable();
+        turning.dedup();
         let cfg = LateralConfig {
             bodies,
             of_body,
             ends,
+            turning,
         };
         cfg.check_held(spec, frame_turns, geo)?;
         Ok(Some(cfg))
@@ -329,6 +343,17 @@ impl Train {
         (x, p)
     }
 
+    /// Each turning carrier's sine and cosine, once per evaluation: its meshes and planets
+    /// all use them (a sine and cosine per mesh, twice, was 18 % of a lateral set's rhs).
+    #[inline]
+    pub(super) fn carrier_turns<const N: usize>(&self, b: &Bodies<N>) -> Turns<N> {
+        let mut r = [(0.0, 1.0); N];
+        for &c in &self.lat().turning {
+            r[c] = self.carrier_motion(c, b, None)[0].sin_cos();
+        }
+        r
+    }
+
     /// Mesh m's Dp_A - Dp_B in its paper frame, and its rate and acceleration in the mesh's
     /// frame (`Kin`'s DX..VY): in a carrier's frame Z = Rot^T X + P, so Z' = Rot^T X' -
     /// psi' S Rot^T X + P' and Z'' = Rot^T X'' - 2 psi' S Rot^T X' - psi'' S Rot^T X -
@@ -340,12 +365,28 @@ impl Train {
         b: &Bodies<N>,
         d: Option<(&[f64], &Bodies<N>)>,
     ) -> Motion {
+        let r = self.cfg.frames[m]
+            .carrier
+            .map_or((0.0, 1.0), |c| self.carrier_motion(c, b, None)[0].sin_cos());
+        self.centre_motion_turned(m, y, b, d, r).0
+    }
+
+    /// `centre_motion` with the mesh's carrier's sine and cosine `r` given, and the housing
+    /// part of the displacement (X, which `book_mesh_force` needs).
+    #[inline]
+    pub(super) fn centre_motion_turned<const N: usize>(
+        &self,
+        m: usize,
+        y: &[f64],
+        b: &Bodies<N>,
+        d: Option<(&[f64], &Bodies<N>)>,
+        r: (f64, f64),
+    ) -> (Motion, [f64; 2]) {
         let (x, p) = self.centre_parts(m, y, d.map(|d| d.0));
         let z = match self.cfg.frames[m].carrier {
             None => x,
             Some(c) => {
-                let [psi, w, alpha] = self.carrier_motion(c, b, d.map(|d| d.1.w[c]));
-                let r = psi.sin_cos();
+                let [_, w, alpha] = self.carrier_motion(c, b, d.map(|d| d.1.w[c]));
                 let (zx, zv, za) = (unturn(x[0], r), unturn(x[1], r), unturn(x[2], r));
                 let (szx, szv) = (quarter(zx), quarter(zv));
                 let mut out = [[0.0; 2]; 3];
@@ -358,21 +399,21 @@ impl Train {
             }
         };
         let (t, s) = self.cfg.frame_turns[m];
-        z.map(|v| {
+        let z = z.map(|v| {
             let u = unturn(v, t);
             [u[0], s * u[1]]
-        })
+        });
+        (z, x[0])
     }
 
     /// Books mesh m's force on B (`f_b`, paper frame) on the lateral coordinates, and the
     /// torque its turning line of action puts on its carrier (module doc): the gradient of
-    /// its penetrations, A taking -f_b and B +f_b.
+    /// its penetrations, A taking -f_b and B +f_b. `r` and `x` as `centre_motion_turned`'s.
     pub(super) fn book_mesh_force<const N: usize>(
         &self,
         m: usize,
         f_b: [f64; 2],
-        y: &[f64],
-        b: &Bodies<N>,
+        (r, x): ((f64, f64), [f64; 2]),
         on: &mut [f64; N],
         q: &mut [[f64; 2]; MAX_BODIES],
     ) {
@@ -381,10 +422,7 @@ impl Train {
         let fh = match self.cfg.frames[m].carrier {
             None => fc,
             Some(c) => {
-                let [psi, ..] = self.carrier_motion(c, b, None);
-                let r = psi.sin_cos();
-                let x = self.centre_parts(m, y, None).0;
-                on[c] += self.cfg.structure.sense[c] * cross(unturn(x[0], r), fc);
+                on[c] += self.cfg.structure.sense[c] * cross(unturn(x, r), fc);
                 turn(fc, r)
             }
         };
@@ -430,7 +468,7 @@ impl Train {
         &self,
         y: &[f64],
         b: &Bodies<N>,
-        acc: &[f64; N],
+        (acc, turns): (&[f64; N], &Turns<N>),
         q: &[[f64; 2]; MAX_BODIES],
         dy: &mut [f64],
     ) {
@@ -444,8 +482,7 @@ impl Train {
         {
             let mut f = q[l];
             if !lb.planets.is_empty() {
-                let [psi, ..] = self.carrier_motion(lb.body, b, None);
-                let r = psi.sin_cos();
+                let r = turns[lb.body];
                 for &n in &lb.planets {
                     let qh = turn(turn(q[n], lat.bodies[n].pin_dir), r);
                     f = [f[0] - qh[0], f[1] - qh[1]];
@@ -455,11 +492,11 @@ impl Train {
         }
         for (l, lb) in lat.bodies.iter().enumerate() {
             let Some(k) = lb.carrier else { continue };
-            let [psi, w, alpha] = self.carrier_motion(k, b, Some(acc[k]));
+            let [_, w, alpha] = self.carrier_motion(k, b, Some(acc[k]));
             let (u, v) = (lb.arm(y), [y[lb.at + 1], y[lb.at + 3]]);
-            let ac = lb.carrier_lat.map_or([0.0; 2], |kl| {
-                unturn(unturn(a[kl], psi.sin_cos()), lb.pin_dir)
-            });
+            let ac = lb
+                .carrier_lat
+                .map_or([0.0; 2], |kl| unturn(unturn(a[kl], turns[k]), lb.pin_dir));
             let (su, sv) = (quarter(u), quarter(v));
             for d in 0..2 {
                 a[l][d] =

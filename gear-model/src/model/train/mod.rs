@@ -500,6 +500,28 @@ impl Train {
         k
     }
 
+    /// `kin` of a lateral train, with its carriers' turns computed once for all meshes
+    /// (`carrier_turns`); also the mesh's carrier's turn and the housing part of its centres'
+    /// displacement, which booking its force needs (`book_mesh_force`).
+    #[inline]
+    fn kin_turned<const N: usize>(
+        &self,
+        m: usize,
+        y: &[f64],
+        b: &Bodies<N>,
+        turns: &lateral::Turns<N>,
+    ) -> (Kin, ((f64, f64), [f64; 2])) {
+        let mut k = self.kin_of::<N, false>(m, y, b);
+        let mut turned = ((0.0, 1.0), [0.0; 2]);
+        if self.meshes[m].moving_centres {
+            turned.0 = self.cfg.frames[m].carrier.map_or((0.0, 1.0), |c| turns[c]);
+            let ([z, v, _], x) = self.centre_motion_turned(m, y, b, None, turned.0);
+            [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [z[0], z[1], v[0], v[1]];
+            turned.1 = x;
+        }
+        (k, turned)
+    }
+
     /// Mesh m's centres' motion into its `Kin` (kept out of `kin`, which the base scenes
     /// inline).
     #[inline(never)]
@@ -515,10 +537,12 @@ impl Train {
         m: usize,
         (y, b): (&[f64], &Bodies<N>),
         (dy, db): (&[f64], &Bodies<N>),
+        turns: &lateral::Turns<N>,
     ) -> Kin {
-        let mut k = self.kin(m, dy, db);
+        let mut k = self.kin_of::<N, false>(m, dy, db);
         if self.meshes[m].moving_centres {
-            let [_, v, a] = self.centre_motion(m, y, b, Some((dy, db)));
+            let r = self.cfg.frames[m].carrier.map_or((0.0, 1.0), |c| turns[c]);
+            let ([_, v, a], _) = self.centre_motion_turned(m, y, b, Some((dy, db)), r);
             [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [v[0], v[1], a[0], a[1]];
         }
         k
@@ -527,13 +551,15 @@ impl Train {
     /// Every torque on the bodies with the current modes (gear-train.md §5, planetary.md §3):
     /// inputs, drags (a planet's relative to its carrier, which takes the reaction), each
     /// mesh's torques on its gears and minus their sum on its carrier, the shafts'. `lat`: the
-    /// lateral coordinates' generalized forces, when wanted (`lateral.rs`).
+    /// lateral coordinates' generalized forces, when wanted (`lateral.rs`). `turns`: the
+    /// carriers' (`carrier_turns`), which LAT needs.
     #[inline]
     fn torques<const N: usize, const LAT: bool>(
         &self,
         y: &[f64],
         b: &Bodies<N>,
         mut lat: Option<&mut [[f64; 2]; MAX_BODIES]>,
+        turns: Option<&lateral::Turns<N>>,
     ) -> Result<Torques<N>, LawOutOfRange> {
         let c = &*self.cfg;
         let hs = c.housing;
@@ -557,7 +583,15 @@ impl Train {
         }
         let st = &c.structure;
         for (m, (mesh, l)) in self.meshes.iter().zip(&c.links).enumerate() {
-            let load = mesh.compliant_load(&self.kin_of::<N, LAT>(m, y, b), None)?;
+            let (k, turned) = match (LAT, turns) {
+                (true, Some(turns)) => self.kin_turned(m, y, b, turns),
+                _ => (self.kin_of::<N, false>(m, y, b), ((0.0, 1.0), [0.0; 2])),
+            };
+            debug_assert!(
+                !LAT || turns.is_some(),
+                "a lateral train's torques need its turns"
+            );
+            let load = mesh.compliant_load(&k, None)?;
             t.on[l.a] += load.tq_a;
             t.on[l.b] += load.tq_b;
             if l.carrier != hs {
@@ -575,7 +609,7 @@ impl Train {
             t.p_loss += load.p_loss;
             if let (true, Some(q)) = (LAT, lat.as_deref_mut()) {
                 if mesh.moving_centres {
-                    self.book_mesh_force(m, [load.f_bx, load.f_by], y, b, &mut t.on, q);
+                    self.book_mesh_force(m, [load.f_bx, load.f_by], turned, &mut t.on, q);
                 }
             }
         }
@@ -613,7 +647,7 @@ impl Train {
         if c.lateral.is_some() {
             return self.rhs_lateral(y, &b, dy);
         }
-        let t = self.torques::<N, false>(y, &b, None)?;
+        let t = self.torques::<N, false>(y, &b, None, None)?;
         self.rhs_from(&t, y, &b, dy);
         Ok(())
     }
@@ -627,9 +661,10 @@ impl Train {
         dy: &mut [f64],
     ) -> Result<(), LawOutOfRange> {
         let mut q = [[0.0; 2]; MAX_BODIES];
-        let t = self.torques::<N, true>(y, b, Some(&mut q))?;
+        let turns = self.carrier_turns(b);
+        let t = self.torques::<N, true>(y, b, Some(&mut q), Some(&turns))?;
         let acc = self.rhs_from(&t, y, b, dy);
-        self.lateral_rates(y, b, &acc, &q, dy);
+        self.lateral_rates(y, b, (&acc, &turns), &q, dy);
         Ok(())
     }
 
@@ -673,9 +708,13 @@ impl Train {
 
     pub fn check_state(&self, y: &[f64]) -> Result<(), LawOutOfRange> {
         let b = self.bodies(y);
+        let turns = self.cfg.lateral.is_some().then(|| self.carrier_turns(&b));
         for (m, mesh) in self.meshes.iter().enumerate() {
-            mesh.check_state(&self.kin(m, y, &b))
-                .map_err(|e| named(m, e))?;
+            let k = match &turns {
+                Some(turns) => self.kin_turned(m, y, &b, turns).0,
+                None => self.kin(m, y, &b),
+            };
+            mesh.check_state(&k).map_err(|e| named(m, e))?;
         }
         Ok(())
     }

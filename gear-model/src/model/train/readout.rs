@@ -19,8 +19,8 @@ impl Train {
         let lat = self.cfg.lateral.is_some();
         let b = self.bodies_in::<N>(y);
         Ok(match lat {
-            true => self.torques::<N, true>(y, &b, None)?,
-            false => self.torques::<N, false>(y, &b, None)?,
+            true => self.torques::<N, true>(y, &b, None, Some(&self.carrier_turns(&b)))?,
+            false => self.torques::<N, false>(y, &b, None, None)?,
         }
         .housing)
     }
@@ -34,10 +34,13 @@ impl Train {
     fn drive_torque_in<const N: usize>(&self, i: usize, y: &[f64]) -> Result<f64, LawOutOfRange> {
         let b = self.bodies_in::<N>(y);
         if self.cfg.lateral.is_none() {
-            return Ok(-self.torques::<N, false>(y, &b, None)?.on[i]);
+            return Ok(-self.torques::<N, false>(y, &b, None, None)?.on[i]);
         }
         let mut q = [[0.0; 2]; MAX_BODIES];
-        Ok(-self.torques::<N, true>(y, &b, Some(&mut q))?.on[i])
+        let turns = self.carrier_turns(&b);
+        Ok(-self
+            .torques::<N, true>(y, &b, Some(&mut q), Some(&turns))?
+            .on[i])
     }
 
     /// The bodies' rotations' kinetic energy (a rigid planet's orbit in its carrier's
