@@ -406,6 +406,46 @@ impl Train {
         (z, x[0])
     }
 
+    /// `kin` of a lateral train, with its carriers' turns computed once for all meshes
+    /// (`carrier_turns`); also the mesh's carrier's turn and the housing part of its centres'
+    /// displacement, which booking its force needs (`book_mesh_force`).
+    #[inline]
+    pub(super) fn kin_turned<const N: usize>(
+        &self,
+        m: usize,
+        y: &[f64],
+        b: &Bodies<N>,
+        turns: &Turns<N>,
+    ) -> (Kin, ((f64, f64), [f64; 2])) {
+        let mut k = self.kin_of::<N, false>(m, y, b);
+        let mut turned = ((0.0, 1.0), [0.0; 2]);
+        if self.meshes[m].moving_centres {
+            turned.0 = self.cfg.frames[m].carrier.map_or((0.0, 1.0), |c| turns[c]);
+            let ([z, v, _], x) = self.centre_motion_turned(m, y, b, None, turned.0);
+            [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [z[0], z[1], v[0], v[1]];
+            turned.1 = x;
+        }
+        (k, turned)
+    }
+
+    /// The time derivative of mesh m's `kin` at y, given the state's derivative dy.
+    #[inline]
+    pub(super) fn kin_rate<const N: usize>(
+        &self,
+        m: usize,
+        (y, b): (&[f64], &Bodies<N>),
+        (dy, db): (&[f64], &Bodies<N>),
+        turns: &Turns<N>,
+    ) -> Kin {
+        let mut k = self.kin_of::<N, false>(m, dy, db);
+        if self.meshes[m].moving_centres {
+            let r = self.cfg.frames[m].carrier.map_or((0.0, 1.0), |c| turns[c]);
+            let ([_, v, a], _) = self.centre_motion_turned(m, y, b, Some((dy, db)), r);
+            [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [v[0], v[1], a[0], a[1]];
+        }
+        k
+    }
+
     /// Books mesh m's force on B (`f_b`, paper frame) on the lateral coordinates, and the
     /// torque its turning line of action puts on its carrier (module doc): the gradient of
     /// its penetrations, A taking -f_b and B +f_b. `r` and `x` as `centre_motion_turned`'s.

@@ -500,52 +500,12 @@ impl Train {
         k
     }
 
-    /// `kin` of a lateral train, with its carriers' turns computed once for all meshes
-    /// (`carrier_turns`); also the mesh's carrier's turn and the housing part of its centres'
-    /// displacement, which booking its force needs (`book_mesh_force`).
-    #[inline]
-    fn kin_turned<const N: usize>(
-        &self,
-        m: usize,
-        y: &[f64],
-        b: &Bodies<N>,
-        turns: &lateral::Turns<N>,
-    ) -> (Kin, ((f64, f64), [f64; 2])) {
-        let mut k = self.kin_of::<N, false>(m, y, b);
-        let mut turned = ((0.0, 1.0), [0.0; 2]);
-        if self.meshes[m].moving_centres {
-            turned.0 = self.cfg.frames[m].carrier.map_or((0.0, 1.0), |c| turns[c]);
-            let ([z, v, _], x) = self.centre_motion_turned(m, y, b, None, turned.0);
-            [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [z[0], z[1], v[0], v[1]];
-            turned.1 = x;
-        }
-        (k, turned)
-    }
-
     /// Mesh m's centres' motion into its `Kin` (kept out of `kin`, which the base scenes
     /// inline).
     #[inline(never)]
     fn put_centres<const N: usize>(&self, m: usize, y: &[f64], b: &Bodies<N>, k: &mut Kin) {
         let [z, v, _] = self.centre_motion(m, y, b, None);
         [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [z[0], z[1], v[0], v[1]];
-    }
-
-    /// The time derivative of mesh m's `kin` at y, given the state's derivative dy.
-    #[inline]
-    fn kin_rate<const N: usize>(
-        &self,
-        m: usize,
-        (y, b): (&[f64], &Bodies<N>),
-        (dy, db): (&[f64], &Bodies<N>),
-        turns: &lateral::Turns<N>,
-    ) -> Kin {
-        let mut k = self.kin_of::<N, false>(m, dy, db);
-        if self.meshes[m].moving_centres {
-            let r = self.cfg.frames[m].carrier.map_or((0.0, 1.0), |c| turns[c]);
-            let ([_, v, a], _) = self.centre_motion_turned(m, y, b, Some((dy, db)), r);
-            [k[mesh::DX], k[mesh::DY], k[mesh::VX], k[mesh::VY]] = [v[0], v[1], a[0], a[1]];
-        }
-        k
     }
 
     /// Every torque on the bodies with the current modes (gear-train.md §5, planetary.md §3):
