@@ -2,7 +2,7 @@
 """Cost of the base scenes now against an earlier commit (issue 8: with every new feature off,
 the base scenes must cost what they cost before, within noise).
 
-    python3 tools/cost_vs_rev.py REV [--rounds 15] [--scenes damped,paper-m2,...]
+    .venv/bin/python tools/cost_vs_rev.py REV [--rounds 15] [--scenes damped,paper-m2,...]
         [--old-binary PATH]     (REV's run_scene already built: skips the worktree build)
         [--train]               (the gear trains: scenes/train/*.toml through run_train_scene,
                                  CPU time of the FMU's Slave, the setup included)
