@@ -121,7 +121,7 @@ impl System for Toy {
     /// As the gear limits a step to a fraction of a tooth pitch: a step far longer than the
     /// flights would locate their ends on an interpolant whose terms are large (a 1000 s step of
     /// free fall spans 5e6 m), losing digits to rounding.
-    fn max_step(&self, _y: &State, _stability: Option<f64>) -> f64 {
+    fn max_step(&self, _y: &State, _stability: Option<spur_gear_mesh::driver::Stability>) -> f64 {
         0.1
     }
     fn dim(&self) -> usize {

@@ -484,3 +484,138 @@ fn a_floating_sun_shares_the_load_equally() {
     let mean = (f[0] + f[1] + f[2]) / 3.0;
     assert!((f[0] - mean).abs() > 0.1 * mean, "held: {f:?}");
 }
+
+/// The modes that set an explicit method's steps where the flanks in contact set them
+/// (gear-model/src/model/train/modal.rs), in closed form: the pinion case on an isotropic
+/// bearing k_b, undamped, meshing with a wheel whose speed is given. In mass-normalized
+/// coordinates (sqrt(J) theta, sqrt(m) q) the stiffness is k g g^T plus k_b on q, with
+/// g = (rAb / sqrt(J), n_f / sqrt(m)): the translation across n_f vibrates at sqrt(k_b / m),
+/// the rotation with the translation along n_f at the roots of [[k rAb^2 / J, k rAb /
+/// sqrt(J m)], [k rAb / sqrt(J m), (k + k_b) / m]]. Central differences are exact on linear
+/// springs but for rounding (steps of 1e-3 of each coordinate's scale): 1e-6 is far above it.
+#[test]
+fn the_modes_that_limit_the_steps_are_the_pinions_closed_form() {
+    let c = PinionCase::new();
+    let k_b = 1.5e8;
+    let p = Params {
+        c_lumped: 0.0,
+        ..c.p
+    };
+    let mut pinion = body(0.01);
+    pinion.lateral = bearing(c.m, [k_b, k_b], [0.0; 2]);
+    let mut wheel = body(0.05);
+    wheel.speed_driven = true;
+    let mut meshes = vec![mesh(0, 1, 0.7, &p)];
+    meshes[0].dte_start = c.f / K_LUMPED;
+    let spec = TrainSpec {
+        bodies: vec![pinion, wheel],
+        angle_start: 0.0,
+        shafts: vec![],
+        meshes,
+    };
+    let (train, _) = Train::new(spec, vec![c.f * c.g.r_ab, 0.0], None).unwrap();
+    let mut found: Vec<f64> = train
+        .limiting_modes()
+        .expect("a lateral train of constant lumped meshes")
+        .iter()
+        .map(|&(w, _)| w)
+        .filter(|&w| w > 1.0)
+        .collect();
+    found.sort_by(f64::total_cmp);
+    let (j, m, r) = (0.01, c.m, c.g.r_ab);
+    let (a, d, b) = (
+        K_LUMPED * r * r / j,
+        (K_LUMPED + k_b) / m,
+        K_LUMPED * r / (j * m).sqrt(),
+    );
+    let root = (0.25 * (a - d) * (a - d) + b * b).sqrt();
+    let mut want = [
+        (0.5 * (a + d) - root).sqrt(),
+        (k_b / m).sqrt(),
+        (0.5 * (a + d) + root).sqrt(),
+    ];
+    want.sort_by(f64::total_cmp);
+    assert_eq!(found.len(), 3, "{found:?}");
+    for (f, w) in found.iter().zip(want) {
+        assert!((f - w).abs() <= 1e-6 * w, "{found:?} vs {want:?}");
+    }
+}
+
+/// The modal step limit where it sets the steps: a planetary set of constant lumped meshes
+/// with sun, carrier and planets lateral (isotropic bearings on the housing's axes), in static
+/// balance at rest (`static_start`), its sun's centre pushed at 1e-8 m/s (1e-7 of its
+/// vibration's velocity scale) so that its modes ring at an amplitude the error control at
+/// rel_tol 1e-6 hardly resolves. The run takes fewer steps than the trace's bound would allow
+/// (the modal limit set them), and its states follow a run whose steps are held to 1 us at
+/// rel_tol 1e-10: at rel_tol 1e-6 each of its 700 steps adds at most about 1e-6 of a
+/// coordinate's scale (its error tolerance at rel_tol 1), so 1e-3 of the larger of that scale
+/// and the coordinate's range. (That the limit lies inside the method's stability region is
+/// the region table's test, dopri5.rs, and the modes' closed form above; past it, here, the
+/// error control would cut the steps back with rejections.)
+#[test]
+fn the_modal_step_limit_keeps_a_ringing_set_stable_and_accurate() {
+    let constant = |p: Params| Params {
+        c_lumped: 500.0,
+        ..lumped(p)
+    };
+    let mut sun = body(2e-3);
+    sun.lateral = bearing(1.0, [1e8, 1e8], [200.0, 200.0]);
+    let mut carrier = body(0.05);
+    carrier.lateral = bearing(5.0, [2e8, 2e8], [300.0, 300.0]);
+    let mut planet = body(1e-4);
+    planet.lateral = bearing(0.3, [5e7, 3e7], [50.0, 20.0]);
+    let spec = three_planets(sun, carrier, planet, 1e-6, constant);
+    let tau = vec![50.0, -50.0 * (1.0 + 57.0 / 21.0), 0.0, 0.0, 0.0];
+    let at_rest = TrainSimulation::new(spec.clone(), tau.clone(), None, 1, 0.0, 1e-10).unwrap();
+    let mut spec = static_start(spec, &at_rest.train().loads).unwrap();
+    spec.bodies[0].lateral.as_mut().unwrap().v_start = [1e-8, 0.0];
+    let stop = 2e-2;
+    let run = |rtol: f64, cap: f64| {
+        let mut sim = TrainSimulation::new(spec.clone(), tau.clone(), None, 1, 0.0, rtol).unwrap();
+        match &mut sim {
+            TrainSimulation::Compact(r) => r.driver.max_step = cap,
+            TrainSimulation::Full(r) => r.driver.max_step = cap,
+        }
+        let trace: Vec<State> = (1..=20)
+            .map(|k| {
+                sim.advance(k as f64 * stop / 20.0, &mut |_, _| {}).unwrap();
+                sim.state()
+            })
+            .collect();
+        (sim, trace)
+    };
+    let (sim, fast) = run(1e-6, f64::INFINITY);
+    let train = sim.train();
+    assert!(train.limiting_modes().is_some());
+    let y = sim.state();
+    let stability = spur_gear_mesh::driver::dopri5::STABILITY;
+    let (modal, trace_bound) = (
+        train.max_step(&y, Some(stability)),
+        stability.reach / train.vibration_frequency(&y),
+    );
+    assert!(modal > 1.5 * trace_bound, "{modal} against {trace_bound}");
+    // Fewer steps than the trace's bound allows: the modal limit set them.
+    let steps = sim.stats().steps as f64;
+    assert!(
+        steps < stop / trace_bound,
+        "{steps} steps of at most {trace_bound} s"
+    );
+    let (_, fine) = run(1e-10, 1e-6);
+    let scale = train.abs_tol(1.0);
+    for i in 2..train.dim() {
+        let (lo, hi) = fine
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
+                (l.min(y[i]), h.max(y[i]))
+            });
+        let tol = 1e-3 * (hi - lo).max(scale[i]);
+        for (k, (a, b)) in fast.iter().zip(&fine).enumerate() {
+            assert!(
+                (a[i] - b[i]).abs() <= tol,
+                "state {i} at point {k}: {} vs {} ({tol})",
+                a[i],
+                b[i]
+            );
+        }
+    }
+}

@@ -7,7 +7,7 @@
 //! runs the driver's toys with it. Like `dopri5.rs` it needs no nodes c_i: between events and
 //! input changes the system is autonomous. docs/integrators.md has the measurements behind it.
 
-use super::{min_step, Stats, StepError, System, Tolerance, Vector};
+use super::{min_step, Stability, Stats, StepError, System, Tolerance, Vector};
 
 /// One row of the tableau: the stages it combines (0 is the rate at the step's start) and
 /// their coefficients; the zeros are left out.
@@ -312,7 +312,10 @@ const D7: Row<12> = Row {
 /// The h omega that steps may reach on an undamped oscillation (`System::max_step`): the
 /// stability region holds the imaginary axis up to 5.96 (|R(iy)| <= 1), and at 4 it damps an
 /// oscillation by 2.3 % per step, so near an equilibrium it decays.
-pub const STABILITY: f64 = 4.0;
+pub const STABILITY: Stability = Stability {
+    reach: 4.0,
+    region: None,
+};
 
 /// The 3rd-order error estimate's weight relative to the 5th's (Hairer's 0.01).
 const E3_WEIGHT: f64 = 0.01;
@@ -704,7 +707,7 @@ mod tests {
         fn check_state(&self, _y: &[f64; 2]) -> Result<(), Never> {
             Ok(())
         }
-        fn max_step(&self, _y: &[f64; 2], _stability: Option<f64>) -> f64 {
+        fn max_step(&self, _y: &[f64; 2], _stability: Option<super::Stability>) -> f64 {
             f64::INFINITY
         }
         fn dim(&self) -> usize {

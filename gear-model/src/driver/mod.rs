@@ -14,12 +14,14 @@ pub mod dopri5;
 pub mod exchange;
 mod locate;
 pub mod simulation;
+pub mod stability;
 pub mod train_simulation;
 pub mod wide;
 
 pub use locate::MarginCache;
 use locate::Scratch;
 use serde::{Deserialize, Serialize};
+pub use stability::Stability;
 use std::fmt::Debug;
 use std::ops::{Index, IndexMut};
 
@@ -87,7 +89,7 @@ pub trait System {
     /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
     /// explicit method (`stability`: the h omega its stability region allows on the imaginary
     /// axis) keeps oscillations of angular frequency omega within it.
-    fn max_step(&self, y: &Self::State, stability: Option<f64>) -> f64;
+    fn max_step(&self, y: &Self::State, stability: Option<Stability>) -> f64;
     /// The number of state components in use, a prefix of the state.
     fn dim(&self) -> usize;
     /// Takes in the piece [t0, t1] of a step between events, on which `y` is the dense output
@@ -202,7 +204,7 @@ pub fn initial_step<S: System>(
     y: &S::State,
     f0: &S::State,
     order: i32,
-    stability: f64,
+    stability: Stability,
     tol: &Tolerance<S::State>,
     stats: &mut Stats,
 ) -> Result<f64, StepError<S::Error>> {
@@ -258,7 +260,7 @@ pub trait DenseOutput<Y> {
     fn derivative(&self, t: f64) -> Y;
     /// For an explicit method, the h omega its stability region allows on the imaginary axis
     /// (`System::max_step`); None for an implicit one.
-    fn stability(&self) -> Option<f64>;
+    fn stability(&self) -> Option<Stability>;
 }
 
 /// How the driver steps a method on a system.
@@ -310,7 +312,7 @@ macro_rules! explicit_method {
             fn derivative(&self, t: f64) -> Y {
                 <$method>::derivative(self, t)
             }
-            fn stability(&self) -> Option<f64> {
+            fn stability(&self) -> Option<Stability> {
                 Some($stability)
             }
         }
@@ -350,7 +352,7 @@ pub(crate) fn explicit_start<S: System>(
     y: &S::State,
     h_hint: Option<f64>,
     order: i32,
-    stability: f64,
+    stability: Stability,
     tol: &Tolerance<S::State>,
     stats: &mut Stats,
 ) -> Result<(S::State, f64), StepError<S::Error>> {
@@ -391,7 +393,7 @@ impl<S: System + Clone + 'static> DenseOutput<S::State> for bdf::Bdf<S> {
         let (ya, yb) = (self.interpolate(a), self.interpolate(b));
         S::State::from_fn(|i| (yb[i] - ya[i]) / (b - a))
     }
-    fn stability(&self) -> Option<f64> {
+    fn stability(&self) -> Option<Stability> {
         None
     }
 }
@@ -445,7 +447,7 @@ impl<S: System + Clone + 'static> Method<S> {
         }
     }
 
-    fn stability(&self) -> Option<f64> {
+    fn stability(&self) -> Option<Stability> {
         self.dense().stability()
     }
 

@@ -53,7 +53,7 @@ impl System for PaperRig {
     /// (2 for Dormand-Prince 5(4), 4 for DOP853: `dopri5::STABILITY`, `dop853::STABILITY`):
     /// near an equilibrium the error estimate sees nothing and would let the step grow until
     /// rounding errors are amplified.
-    fn max_step(&self, y: &State, stability: Option<f64>) -> f64 {
+    fn max_step(&self, y: &State, stability: Option<super::Stability>) -> f64 {
         let speed = self.geo.r_ab * y[crate::model::paper_rig::W_A].abs();
         let pitches = match self.law {
             crate::model::ContactModel::Compliant(_) => 0.25,
@@ -64,10 +64,10 @@ impl System for PaperRig {
         } else {
             f64::INFINITY
         };
-        if let Some(reach) = stability {
+        if let Some(s) = stability {
             let omega = self.vibration_frequency(y);
             if omega > 0.0 {
-                return travel.min(reach / omega);
+                return travel.min(s.reach / omega);
             }
         }
         travel

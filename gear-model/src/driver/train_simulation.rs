@@ -108,7 +108,7 @@ macro_rules! train_as_system {
             ) -> Result<EventReport, LawOutOfRange> {
                 self.train_mut().handle_event(i, y)
             }
-            fn max_step(&self, y: &$state, stability: Option<f64>) -> f64 {
+            fn max_step(&self, y: &$state, stability: Option<super::Stability>) -> f64 {
                 self.train().max_step(y, stability)
             }
             fn dim(&self) -> usize {

@@ -111,6 +111,7 @@ impl Train {
         }
         self.n_events += 1;
         self.e_gate += self.meshes[m].contact_energy(&k).map_err(|e| named(m, e))? - before;
+        self.renew_modes(y);
         Ok(report)
     }
 }

@@ -74,7 +74,7 @@ pub(super) struct LateralConfig {
     ends: Vec<[End; 2]>,
     /// The carriers whose angle turns a lateral vector: of a mesh whose centres move, of a
     /// lateral planet, or lateral with planets (`Train::carrier_turns`).
-    turning: Vec<usize>,
+    pub turning: Vec<usize>,
 }
 
 /// The sine and cosine of each carrier's angle in `LateralConfig::turning`, by body.

@@ -154,6 +154,7 @@ macro_rules! by_slots {
 }
 
 mod events;
+mod modal;
 mod readout;
 mod shafts;
 mod tolerance;
@@ -173,6 +174,8 @@ pub struct Train {
     /// The deflections a static start solved for (parameter `static_start`), kept for a saved
     /// state.
     pub static_start: Option<statics::StartDeflections>,
+    /// The modes that limit an explicit method's steps, where the flanks set them (`modal`).
+    pub modes: Option<modal::Modes>,
 }
 
 impl Default for TrainConfig {
@@ -375,6 +378,7 @@ impl Train {
             e_start: 0.0,
             stats: statistics.map(|t| vec![Statistics::new(t); n_meshes]),
             static_start: None,
+            modes: None,
         };
         // Every angle starts at 0: each coordinate at its offset; the rates from the bodies'
         // start speeds.
@@ -407,6 +411,7 @@ impl Train {
             .energy_terms(&y)
             .map_err(|e| ModelError::new(e.to_string()))?
             .0;
+        train.renew_modes(&y);
         Ok((train, y))
     }
 
@@ -745,8 +750,9 @@ impl Train {
     }
 
     /// At most a quarter pitch of contact travel in any mesh (its objects' events recur every
-    /// pitch), and for an explicit method `stability`/omega of the fastest vibration.
-    pub fn max_step(&self, y: &[f64], stability: Option<f64>) -> f64 {
+    /// pitch), and for an explicit method what its stability region holds: on the modes where
+    /// the flanks in contact set them (`modal`), else reach/omega of the fastest vibration.
+    pub fn max_step(&self, y: &[f64], stability: Option<crate::driver::Stability>) -> f64 {
         let b = self.bodies(y);
         let mut h = f64::INFINITY;
         for (m, mesh) in self.meshes.iter().enumerate() {
@@ -758,10 +764,13 @@ impl Train {
                 h = h.min(pitches * mesh.geo.p_b / speed);
             }
         }
-        if let Some(reach) = stability {
+        if let Some(s) = stability {
+            if let Some(modal) = self.modal_step(s) {
+                return h.min(modal);
+            }
             let omega = self.vibration_frequency(y);
             if omega > 0.0 {
-                h = h.min(reach / omega);
+                h = h.min(s.reach / omega);
             }
         }
         h
