@@ -318,7 +318,9 @@ impl Train {
     }
 
     /// Mesh m's Dp_A - Dp_B split into its housing-frame part X and its carrier-frame part P
-    /// (lateral planets), each with its rate and, with `dy`, acceleration.
+    /// (lateral planets), each with its rate and, with `dy`, acceleration. Inlined: without
+    /// `dy` (the right-hand side) the accelerations' terms vanish.
+    #[inline(always)]
     fn centre_parts(&self, m: usize, y: &[f64], dy: Option<&[f64]>) -> (Motion, Motion) {
         let lat = self.lat();
         let (mut x, mut p) = ([[0.0; 2]; 3], [[0.0; 2]; 3]);
@@ -373,7 +375,7 @@ impl Train {
 
     /// `centre_motion` with the mesh's carrier's sine and cosine `r` given, and the housing
     /// part of the displacement (X, which `book_mesh_force` needs).
-    #[inline]
+    #[inline(always)]
     pub(super) fn centre_motion_turned<const N: usize>(
         &self,
         m: usize,
