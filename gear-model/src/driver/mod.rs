@@ -87,8 +87,8 @@ pub trait System {
     /// Checks an accepted state against limits the right-hand side does not see.
     fn check_state(&self, y: &Self::State) -> Result<(), Self::Error>;
     /// Largest step that cannot step over a whole event cycle (e.g. a tooth pitch), and for an
-    /// explicit method (`stability`: the h omega its stability region allows on the imaginary
-    /// axis) keeps oscillations of angular frequency omega within it.
+    /// explicit method (`stability`: what its stability region allows, `Stability`) keeps
+    /// oscillations of angular frequency omega within it.
     fn max_step(&self, y: &Self::State, stability: Option<Stability>) -> f64;
     /// The number of state components in use, a prefix of the state.
     fn dim(&self) -> usize;
@@ -258,7 +258,7 @@ pub trait DenseOutput<Y> {
     /// The dense output and its rate at time t inside the last step.
     fn interpolate(&self, t: f64) -> Y;
     fn derivative(&self, t: f64) -> Y;
-    /// For an explicit method, the h omega its stability region allows on the imaginary axis
+    /// For an explicit method, what its stability region allows a step on an oscillation
     /// (`System::max_step`); None for an implicit one.
     fn stability(&self) -> Option<Stability>;
 }
