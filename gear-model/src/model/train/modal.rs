@@ -83,7 +83,12 @@ impl Train {
                 jac[(r, c)] = (fp[r + 2] - fm[r + 2]) / (2.0 * h);
             }
         }
-        let ev = Schur::try_new(jac, f64::EPSILON, 10_000)?.complex_eigenvalues();
+        // A state the law refuses gives no modes, nor one whose rates are not finite; Francis'
+        // iteration takes a few sweeps per eigenvalue, so 30 n bounds a stall.
+        if !jac.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let ev = Schur::try_new(jac, f64::EPSILON, 30 * n)?.complex_eigenvalues();
         Some(
             ev.iter()
                 .filter(|l| l.im >= 0.0 && l.norm() > 0.0)
