@@ -13,6 +13,9 @@ use nalgebra::Schur;
 /// with the carrier's speed (its Coriolis and centrifugal terms).
 const SHARE: f64 = 0.9;
 
+// Every mesh's two flanks fit the signature's 64 bits.
+const _: () = assert!(2 * MAX_MESHES <= 64);
+
 /// The modes found at the last change of the flanks in contact.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Modes {
