@@ -65,6 +65,7 @@ impl GearMesh {
     /// The load of the flanks in contact: F = k delta + c d(delta)/dt along each one's line of
     /// action, moment arms rAb and rBb, no friction. `pairs` receives each gated pair's share.
     /// MOVING: `moving_centres`, tested once by the caller.
+    #[inline(always)]
     pub(crate) fn lumped_load<const MOVING: bool>(
         &self,
         l: &Lumped,

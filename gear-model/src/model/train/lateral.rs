@@ -411,7 +411,7 @@ impl Train {
     /// `kin` of a lateral train, with its carriers' turns computed once for all meshes
     /// (`carrier_turns`); also the mesh's carrier's turn and the housing part of its centres'
     /// displacement, which booking its force needs (`book_mesh_force`).
-    #[inline]
+    #[inline(always)]
     pub(super) fn kin_turned<const N: usize>(
         &self,
         m: usize,

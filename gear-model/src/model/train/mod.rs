@@ -556,7 +556,11 @@ impl Train {
                 !LAT || turns.is_some(),
                 "a lateral train's torques need its turns"
             );
-            let load = mesh.compliant_load(&k, None)?;
+            // A lateral train's lumped meshes skip the law's dispatch (most HIL sets' meshes).
+            let load = match mesh.lumped() {
+                Some(lp) if LAT && mesh.moving_centres => mesh.lumped_load::<true>(lp, &k, None),
+                _ => mesh.compliant_load(&k, None)?,
+            };
             t.on[l.a] += load.tq_a;
             t.on[l.b] += load.tq_b;
             if l.carrier != hs {
