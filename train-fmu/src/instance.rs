@@ -232,7 +232,7 @@ fn fresh_simulation(
 /// kilobytes at full capacity, read after every communication step).
 fn write_outputs(
     train: &Train,
-    y: &State,
+    y: &[f64],
     stats: Option<Vec<Statistics>>,
     st: &Stats,
     cache: &Cache,
@@ -377,8 +377,8 @@ impl Rig for TrainRig {
                 write_outputs(&ex.rig, &ex.y, stats, &ex.stats, cache, out)
             }
             Run::Sim(sim) => {
-                let (y, stats) = (sim.state(), sim.statistics());
-                write_outputs(sim.train(), &y, stats, sim.stats(), cache, out)
+                let stats = sim.statistics();
+                sim.with_state(|y| write_outputs(sim.train(), y, stats, sim.stats(), cache, out))
             }
         }
     }

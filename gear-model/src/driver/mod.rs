@@ -242,7 +242,9 @@ pub fn initial_step<S: System>(
 pub enum Method<S: System> {
     Dopri5(dopri5::Dopri5<S::State>),
     Bdf(bdf::Bdf<S>),
-    Dop853(dop853::Dop853<S::State>),
+    /// Boxed: inline it would make every method as large as its 8th-order dense output, and
+    /// `fmi2DoStep` copies the method before each step (to undo a failed one).
+    Dop853(Box<dop853::Dop853<S::State>>),
 }
 
 /// What the driver reads of a method: its last step and the dense output over it.
@@ -425,7 +427,7 @@ impl<S: System + Clone + 'static> Method<S> {
     pub fn from_solver(solver: i32) -> Method<S> {
         match solver {
             2 => Method::Bdf(bdf::Bdf::new()),
-            3 => Method::Dop853(dop853::Dop853::new()),
+            3 => Method::Dop853(Box::new(dop853::Dop853::new())),
             _ => Method::Dopri5(dopri5::Dopri5::new()),
         }
     }
@@ -435,7 +437,7 @@ impl<S: System + Clone + 'static> Method<S> {
         match self {
             Method::Dopri5(m) => m,
             Method::Bdf(m) => m,
-            Method::Dop853(m) => m,
+            Method::Dop853(m) => &**m,
         }
     }
 
@@ -443,7 +445,7 @@ impl<S: System + Clone + 'static> Method<S> {
         match self {
             Method::Dopri5(m) => m,
             Method::Bdf(m) => m,
-            Method::Dop853(m) => m,
+            Method::Dop853(m) => &mut **m,
         }
     }
 

@@ -387,6 +387,13 @@ impl TrainSimulation {
     pub fn state(&self) -> State {
         each!(self, r => r.state())
     }
+
+    /// `f` of the state at the current time at the run's capacity (the components past `dim`
+    /// are 0): what reading it costs without widening it to the full capacity.
+    #[inline]
+    pub fn with_state<T>(&self, f: impl FnOnce(&[f64]) -> T) -> T {
+        each!(self, r => f(&r.driver.state()))
+    }
 }
 
 /// Model Exchange of the train: the master integrates the states `Train::master_index` lists.
