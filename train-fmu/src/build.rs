@@ -92,8 +92,10 @@ fn check(p: &Params, info: &VarInfo, geometry: &dyn Fn(usize) -> i32) -> Result<
 /// `mesh[2].zA` -> ("mesh", 2, "zA").
 pub fn element(name: &str) -> Option<(&str, usize, &str)> {
     let (kind, rest) = name.split_once('[')?;
-    let (index, field) = rest.split_once("].")?;
-    Some((kind, index.parse().ok()?, field))
+    // Split at a char, not at "].": a string pattern's searcher cost most of an instance's
+    // setup (every output's name is split when the instance is made).
+    let (index, field) = rest.split_once(']')?;
+    Some((kind, index.parse().ok()?, field.strip_prefix('.')?))
 }
 
 /// Mesh m's pair parameters (1-based) as the single mesh's: every single-mesh parameter the

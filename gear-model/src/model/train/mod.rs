@@ -52,6 +52,13 @@ pub const N_MARGINS: usize = MAX_MESHES * N_EVENTS;
 /// gearbox FMU those of its train; directional derivatives read them all.
 pub const N_MASTER_STATES: usize = NY;
 
+/// y[i] and y[i + 1], with one bounds check.
+#[inline(always)]
+fn pair(y: &[f64], i: usize) -> [f64; 2] {
+    let p = &y[i..i + 2];
+    [p[0], p[1]]
+}
+
 /// Coordinate k's place in the state (its rate follows it).
 pub const fn coord_index(k: usize) -> usize {
     2 + 2 * k
@@ -431,8 +438,8 @@ impl Train {
         let mut b = Bodies::default();
         if let Some(order) = &c.substitution {
             for &(k, to, inv) in order {
-                let j = coord_index(k);
-                let (mut theta, mut w) = (y[j] - c.offset[k], y[j + 1]);
+                let [q, dq] = pair(y, coord_index(k));
+                let (mut theta, mut w) = (q - c.offset[k], dq);
                 for &(i, r) in &c.rows[k].0 {
                     if i != to {
                         theta -= r * b.theta[i];
@@ -447,9 +454,9 @@ impl Train {
         for (i, inverse) in c.inverse.iter().enumerate() {
             let (mut theta, mut w) = (0.0, 0.0);
             for &(k, t) in inverse {
-                let j = coord_index(k);
-                theta += t * (y[j] - c.offset[k]);
-                w += t * y[j + 1];
+                let [q, dq] = pair(y, coord_index(k));
+                theta += t * (q - c.offset[k]);
+                w += t * dq;
             }
             b.theta[i] = theta;
             b.w[i] = w;
@@ -463,7 +470,8 @@ impl Train {
         let l = &self.cfg.links[m];
         if let [(i, c, _)] = l.dte[..] {
             if c == 1.0 {
-                return (y[i], y[i + 1]);
+                let [q, dq] = pair(y, i);
+                return (q, dq);
             }
         }
         let (mut q, mut dq) = (l.dte0, 0.0);
@@ -661,10 +669,11 @@ impl Train {
         }
         dy[W_EXT] = p_ext;
         dy[W_LOSS] = t.p_loss;
-        for (k, row) in c.coords.rows.iter().enumerate() {
-            let i = coord_index(k);
-            dy[i] = y[i + 1];
-            dy[i + 1] = row.dot(&acc);
+        // Coordinate k and its rate at coord_index(k), in pairs: no bounds check per index.
+        let pairs = dy[2..].chunks_exact_mut(2).zip(y[2..].chunks_exact(2));
+        for (row, (d, q)) in c.coords.rows.iter().zip(pairs) {
+            d[0] = q[1];
+            d[1] = row.dot(&acc);
         }
         acc
     }
@@ -732,52 +741,6 @@ impl Train {
     /// Whether body i's speed is an input.
     pub fn is_speed_driven(&self, i: usize) -> bool {
         self.cfg.driven.contains(&i)
-    }
-
-    /// Bound on the highest natural frequency \[rad/s\] (the trace of M^-1 K bounds its
-    /// largest eigenvalue): each mesh's stiffness along its line of action, each shaft's.
-    pub fn vibration_frequency(&self, y: &[f64]) -> f64 {
-        let c = &*self.cfg;
-        let b = self.bodies(y);
-        let mut sum = 0.0;
-        let mut stiffness = [0.0; MAX_MESHES];
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            let k = mesh.mesh_stiffness(&self.kin(m, y, &b));
-            stiffness[m] = k;
-            sum += k * c.mobility(&kinematics::mesh_row(&c.spec, &c.structure, &mesh.geo, m));
-        }
-        sum += self.lateral_trace(&stiffness);
-        for (j, sh) in c.spec.shafts.iter().enumerate() {
-            sum += sh.k * c.mobility(&kinematics::shaft_row(&c.spec, j));
-        }
-        sum.sqrt()
-    }
-
-    /// At most a quarter pitch of contact travel in any mesh (its objects' events recur every
-    /// pitch), and for an explicit method what its stability region holds: on the modes where
-    /// the flanks in contact set them (`modal`), else reach/omega of the fastest vibration.
-    pub fn max_step(&self, y: &[f64], stability: Option<crate::driver::Stability>) -> f64 {
-        let b = self.bodies(y);
-        let mut h = f64::INFINITY;
-        for (m, mesh) in self.meshes.iter().enumerate() {
-            let l = &self.cfg.links[m];
-            let speed = mesh.geo.r_ab * (b.w[l.a] - l.rel_a * b.w[l.carrier]).abs();
-            // A quarter pitch as the single mesh's compliant law, a pitch for the lumped mesh.
-            let pitches = if mesh.lumped().is_some() { 1.0 } else { 0.25 };
-            if speed > 0.0 {
-                h = h.min(pitches * mesh.geo.p_b / speed);
-            }
-        }
-        if let Some(s) = stability {
-            if let Some(modal) = self.modal_step(s) {
-                return h.min(modal);
-            }
-            let omega = self.vibration_frequency(y);
-            if omega > 0.0 {
-                h = h.min(s.reach / omega);
-            }
-        }
-        h
     }
 
     /// Where master state j (`N_MASTER_STATES`) is in the state; None: not in use.

@@ -1,8 +1,8 @@
-//! An explicit method's step limit from the modes of a lateral train's linearization, where
-//! those change only with the meshes' contact flanks. The trace of M^-1 K bounds the highest
-//! mode of docs/lateral.md's 4-planet set at 26 kHz against its true 13 kHz, and takes no
-//! account of its damping: the steps it allows are less than half of what the method's
-//! stability region holds.
+//! An explicit method's step limit (`Train::max_step`): from the modes of a lateral train's
+//! linearization where those change only with the meshes' contact flanks, else from the trace
+//! of M^-1 K. The trace bounds the highest mode of docs/lateral.md's 4-planet set at 26 kHz
+//! against its true 13 kHz, and takes no account of its damping: the steps it allows are less
+//! than half of what the method's stability region holds.
 
 use super::*;
 use crate::driver::Stability;
@@ -26,6 +26,52 @@ pub struct Modes {
 }
 
 impl Train {
+    /// Bound on the highest natural frequency \[rad/s\] (the trace of M^-1 K bounds its
+    /// largest eigenvalue): each mesh's stiffness along its line of action, each shaft's.
+    pub fn vibration_frequency(&self, y: &[f64]) -> f64 {
+        let c = &*self.cfg;
+        let b = self.bodies(y);
+        let mut sum = 0.0;
+        let mut stiffness = [0.0; MAX_MESHES];
+        for (m, mesh) in self.meshes.iter().enumerate() {
+            let k = mesh.mesh_stiffness(&self.kin(m, y, &b));
+            stiffness[m] = k;
+            sum += k * c.mobility(&kinematics::mesh_row(&c.spec, &c.structure, &mesh.geo, m));
+        }
+        sum += self.lateral_trace(&stiffness);
+        for (j, sh) in c.spec.shafts.iter().enumerate() {
+            sum += sh.k * c.mobility(&kinematics::shaft_row(&c.spec, j));
+        }
+        sum.sqrt()
+    }
+
+    /// At most a quarter pitch of contact travel in any mesh (its objects' events recur every
+    /// pitch), and for an explicit method what its stability region holds: on the modes where
+    /// the flanks in contact set them (`modal`), else reach/omega of the fastest vibration.
+    pub fn max_step(&self, y: &[f64], stability: Option<crate::driver::Stability>) -> f64 {
+        let b = self.bodies(y);
+        let mut h = f64::INFINITY;
+        for (m, mesh) in self.meshes.iter().enumerate() {
+            let l = &self.cfg.links[m];
+            let speed = mesh.geo.r_ab * (b.w[l.a] - l.rel_a * b.w[l.carrier]).abs();
+            // A quarter pitch as the single mesh's compliant law, a pitch for the lumped mesh.
+            let pitches = if mesh.lumped().is_some() { 1.0 } else { 0.25 };
+            if speed > 0.0 {
+                h = h.min(pitches * mesh.geo.p_b / speed);
+            }
+        }
+        if let Some(s) = stability {
+            if let Some(modal) = self.modal_step(s) {
+                return h.min(modal);
+            }
+            let omega = self.vibration_frequency(y);
+            if omega > 0.0 {
+                h = h.min(s.reach / omega);
+            }
+        }
+        h
+    }
+
     /// Whether the linearization changes only with the flanks in contact: lateral bodies,
     /// every mesh lumped at a constant stiffness (linear springs), at most one carrier turning
     /// lateral vectors, and isotropic bearings in the housing's frame (so that the modes do not
