@@ -362,6 +362,41 @@ fn the_full_state_steps_a_train_as_the_compact_one() {
     assert!(matches!(sim, TrainSimulation::Compact(_)));
 }
 
+/// fmi2DoStep's backup (`Clone::clone_from`, gear-model/src/model/train/copy.rs): a copy made
+/// in place over an older one, whatever that held, equals the original and continues as it
+/// does, bit for bit, events and all, at both capacities; over a copy of the other capacity it
+/// takes the original's.
+#[test]
+fn a_copy_in_place_continues_as_the_original() {
+    let (spec, tau) = lateral_set(50.0);
+    let (train, y0) = Train::new(spec, tau, None).unwrap();
+    let run = |full: bool| match full {
+        false => TrainSimulation::Compact(TrainRun::new(train.clone(), &y0, 1, 0.0, 1e-8)),
+        true => TrainSimulation::Full(Box::new(TrainRun::new(train.clone(), &y0, 1, 0.0, 1e-8))),
+    };
+    for full in [false, true] {
+        let (mut sim, mut backup, mut other) = (run(full), run(full), run(!full));
+        let mut events = 0;
+        for k in 1..=10 {
+            sim.advance(k as f64 * 5e-4, &mut |_, _| events += 1)
+                .unwrap();
+        }
+        assert!(events > 0, "the copy is made after events");
+        backup.clone_from(&sim);
+        other.clone_from(&sim);
+        assert!(backup == sim && other == sim, "full: {full}");
+        for k in 11..=20 {
+            let t = k as f64 * 5e-4;
+            for s in [&mut sim, &mut backup, &mut other] {
+                s.advance(t, &mut |_, _| {}).unwrap();
+            }
+            assert_eq!(backup.state().0, sim.state().0, "full: {full}, t = {t}");
+            assert_eq!(other.state().0, sim.state().0, "full: {full}, t = {t}");
+        }
+        assert!(backup == sim && other == sim, "full: {full}");
+    }
+}
+
 /// The refusals of lateral.md §1, each naming the body and the number.
 #[test]
 fn bad_bearings_are_refused_with_the_body_and_the_number() {

@@ -89,6 +89,9 @@ pub struct RigInstance<R: Rig> {
     /// The lazy outputs are valid too (computed on demand after `fresh`).
     lazy_fresh: bool,
     pub cache: R::Cache,
+    /// The simulation before the current step, to undo it if it fails: copied in place
+    /// (`clone_from`), so that its buffers are reused from step to step.
+    backup: Option<R::Sim>,
 }
 
 impl<R: Rig> From<Snapshot<R>> for RigInstance<R> {
@@ -99,6 +102,7 @@ impl<R: Rig> From<Snapshot<R>> for RigInstance<R> {
             fresh: false,
             lazy_fresh: false,
             cache: Default::default(),
+            backup: None,
         }
     }
 }
@@ -523,7 +527,13 @@ impl<R: Rig> Slave for RigInstance<R> {
         R::Sim::describe_events(sim.model_mut(), debug_events);
         // A step inside the integrator's last internal step only moves the time: no copy is
         // needed to undo it.
-        let before = sim.needs_work(t_end).then(|| sim.clone());
+        let backed_up = sim.needs_work(t_end);
+        if backed_up {
+            match &mut self.backup {
+                Some(b) => b.clone_from(sim),
+                none => *none = Some(sim.clone()),
+            }
+        }
         let mut events = Vec::new();
         let result = sim.advance(t_end, &mut |te, r| {
             if debug_events {
@@ -546,9 +556,10 @@ impl<R: Rig> Slave for RigInstance<R> {
             }),
         };
         if let Some(f) = failure {
-            match before {
-                Some(b) => self.snap.sim = Some(b),
-                None => self.snap.sim.as_mut().expect("stepped").set_time(t),
+            let sim = self.snap.sim.as_mut().expect("stepped");
+            match self.backup.as_mut().filter(|_| backed_up) {
+                Some(b) => std::mem::swap(sim, b),
+                None => sim.set_time(t),
             }
             self.fresh = false;
             return Err(f);

@@ -30,6 +30,15 @@ impl Clone for MarginCache {
             None => MarginCache::default(),
         }
     }
+
+    /// In place, keeping the buffers (`Driver::clone_from`).
+    fn clone_from(&mut self, src: &Self) {
+        self.at = src.at;
+        if src.at.is_some() {
+            self.margins.clone_from(&src.margins);
+            self.rates.clone_from(&src.rates);
+        }
+    }
 }
 
 impl PartialEq for MarginCache {

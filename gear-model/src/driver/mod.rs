@@ -608,6 +608,41 @@ impl<S: System + Clone + 'static> Clone for Driver<S> {
             search_from: self.search_from,
         }
     }
+
+    /// In place, keeping the buffers (`fmi2DoStep`'s backup, `model/train/copy.rs`); a BDF
+    /// driver as `clone`.
+    fn clone_from(&mut self, src: &Self) {
+        if matches!(src.method, Method::Bdf(_)) || matches!(self.method, Method::Bdf(_)) {
+            *self = src.clone();
+            return;
+        }
+        let Driver {
+            method,
+            tol,
+            t,
+            needs_restart,
+            pending,
+            stats,
+            cap,
+            t_stop,
+            y_start,
+            step_limit,
+            start,
+            scratch: _,
+            max_step,
+            observed,
+            search_from,
+        } = self;
+        match (method, &src.method) {
+            (Method::Dopri5(a), Method::Dopri5(b)) => a.clone_from(b),
+            (m, b) => *m = b.clone(),
+        }
+        tol.clone_from(&src.tol);
+        start.clone_from(&src.start);
+        (*t, *needs_restart, *pending, *stats) = (src.t, src.needs_restart, src.pending, src.stats);
+        (*cap, *t_stop, *y_start, *step_limit) = (src.cap, src.t_stop, src.y_start, src.step_limit);
+        (*max_step, *observed, *search_from) = (src.max_step, src.observed, src.search_from);
+    }
 }
 
 impl<S: System + Clone + 'static> Driver<S> {

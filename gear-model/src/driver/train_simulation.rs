@@ -15,8 +15,17 @@ use std::ops::DerefMut;
 /// without lateral bodies) steps on it, so that the integrator's stages and the copy that
 /// undoes a failed communication step cost what its coordinates need, not the full capacity
 /// (docs/lateral.md, "Capacity").
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Compact(pub Train);
+
+impl Clone for Compact {
+    fn clone(&self) -> Self {
+        Compact(self.0.clone())
+    }
+    fn clone_from(&mut self, src: &Self) {
+        self.0.clone_from(&src.0)
+    }
+}
 
 /// What the driver's run needs of a train at one capacity.
 pub trait TrainSystem:
@@ -170,6 +179,17 @@ impl<S: TrainSystem> Clone for TrainRun<S> {
             origin: self.origin,
         }
     }
+
+    /// In place, keeping the buffers (`fmi2DoStep`'s backup); a BDF run as `clone`.
+    fn clone_from(&mut self, src: &Self) {
+        if matches!(src.driver.method, Method::Bdf(_)) {
+            *self = src.clone();
+            return;
+        }
+        self.train.clone_from(&src.train);
+        self.driver.clone_from(&src.driver);
+        self.origin = src.origin;
+    }
 }
 
 impl<S: TrainSystem> TrainRun<S> {
@@ -282,11 +302,29 @@ impl From<Train> for Compact {
 /// The gear train and its driver together (what the train FMU steps): at the compact capacity
 /// when the train's state fits it, else at the full one. The full run is boxed: the enum is as
 /// large as its largest variant, and the copy that undoes a failed step copies all of it.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[allow(clippy::large_enum_variant)] // the compact run inline: it is the one stepped most
 pub enum TrainSimulation {
     Compact(TrainRun<Compact>),
     Full(Box<TrainRun<Train>>),
+}
+
+impl Clone for TrainSimulation {
+    fn clone(&self) -> Self {
+        match self {
+            TrainSimulation::Compact(r) => TrainSimulation::Compact(r.clone()),
+            TrainSimulation::Full(r) => TrainSimulation::Full(r.clone()),
+        }
+    }
+
+    /// In place, keeping the buffers (`fmi2DoStep`'s backup).
+    fn clone_from(&mut self, src: &Self) {
+        match (self, src) {
+            (TrainSimulation::Compact(a), TrainSimulation::Compact(b)) => a.clone_from(b),
+            (TrainSimulation::Full(a), TrainSimulation::Full(b)) => a.clone_from(b),
+            (a, b) => *a = b.clone(),
+        }
+    }
 }
 
 /// `$body` with `$r` the run, whatever its capacity.

@@ -66,7 +66,7 @@ pub const fn coord_index(k: usize) -> usize {
 
 /// What a master may change between steps: the bodies' torques, the speed-driven bodies'
 /// speeds and the meshes' coefficients.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrainLoads {
     pub tau: Vec<f64>,
     /// Each body's speed input \[rad/s\], read for the speed-driven ones.
@@ -160,14 +160,15 @@ macro_rules! by_slots {
     };
 }
 
+mod copy;
 mod events;
 mod modal;
 mod readout;
 mod shafts;
 mod tolerance;
 
-/// The train.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// The train (`copy.rs` clones it).
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
 pub struct Train {
     #[serde(skip)]
     pub cfg: Arc<TrainConfig>,
