@@ -293,6 +293,17 @@ impl<R: Rig> RigInstance<R> {
             .copied()
             .filter(|&v| <R::Table as Table>::info(v).role == Role::Parameter)
             .collect();
+        if changed.is_empty() {
+            // Inputs only (a master's set at every step): finite, checked above; nothing to
+            // validate, so nothing to put back, and no copy of the inputs.
+            let now = self.time();
+            for (&v, x) in vars.iter().zip(values) {
+                apply(&mut self.snap.params, &mut self.snap.inputs, v, x.clone());
+                R::on_set(&mut self.snap.extra, v, now);
+            }
+            self.after_set(running);
+            return Ok(());
+        }
         // The parameters (about a thousand in a train) are set in place and the ones changed
         // put back if the set is refused: a copy of them all per set was most of the cost of
         // setting a scene's start values.
@@ -309,17 +320,21 @@ impl<R: Rig> RigInstance<R> {
         }
         // Inputs need only be finite (checked above); parameters against the table (the rig
         // says how much a set can change).
-        if !changed.is_empty() {
-            if let Err(e) = R::validate_changed(&self.snap.params, &changed) {
-                // In reverse: a variable set twice gets its value from before the set.
-                for (&v, old) in changed.iter().zip(saved).rev() {
-                    old.restore(&mut self.snap.params, v);
-                }
-                return Err(error(e));
+        if let Err(e) = R::validate_changed(&self.snap.params, &changed) {
+            // In reverse: a variable set twice gets its value from before the set.
+            for (&v, old) in changed.iter().zip(saved).rev() {
+                old.restore(&mut self.snap.params, v);
             }
+            return Err(error(e));
         }
         self.snap.inputs = inputs;
         self.snap.extra = extra;
+        self.after_set(running);
+        Ok(())
+    }
+
+    /// What follows a set that was applied.
+    fn after_set(&mut self, running: bool) {
         self.fresh = false;
         if running {
             R::apply_loads(&mut self.snap, &self.cache);
@@ -327,7 +342,6 @@ impl<R: Rig> RigInstance<R> {
             // Before the end of initialization the run is rebuilt from the parameters.
             self.snap.sim = None;
         }
-        Ok(())
     }
 }
 
