@@ -19,6 +19,7 @@ sys.path.insert(0, os.path.join(ROOT, "tests"))
 from reference_model import gearmesh_ref as G  # noqa: E402
 from reference_model import lateral_ref as LR  # noqa: E402
 from reference_model import train_ref as T  # noqa: E402
+from reference_model.make_lateral_scenes import lin_parker  # noqa: E402,F401 (tests import it from here)
 
 RTOL = 1e-10   # the references' integration tolerance
 
@@ -86,34 +87,6 @@ def rigid_speeds(sv):
     tr = LR.LateralTrain(sv)
     w = T.rigid_kernel(tr) @ np.array([tr.bodies[i].w0 for i in tr.free])
     return dict(sv, **{f"body[{i + 1}].w_start": float(w[i]) for i in range(tr.nb)})
-
-
-A0 = math.radians(24.6)
-
-
-def lin_parker(tau_sun=1.0):
-    """Lin & Parker 1999, Table 1 (lateral.md section 7): 4 equally spaced planets, lumped meshes
-    5e8 N/m, backlash 0, bearings 1e8 N/m, ring torsional support 1e9 N/m (u = r theta units).
-    Gear data for their 24.6 deg on both meshes: 24/20/64 teeth, module 3 mm, pressure_angle
-    24.6 deg, shifts -0.5, +0.5, +0.5 (alpha_w = 24.6 deg exactly at R = 66 mm).  Their I/r^2
-    become J = (I/r^2) r^2 with the base radius (sun, ring, planet) or R (carrier).  Sun and
-    carrier torques balance at rest (a small forward preload on every mesh)."""
-    zs, zp, zr, m = 24, 20, 64, 3e-3
-    rbs, rbp, rbr = (m * z * math.cos(A0) / 2 for z in (zs, zp, zr))
-    R = m * (zs + zp) / 2
-    sv = {"n_bodies": 7, "n_shafts": 1, "n_meshes": 8, "shaft[1].a": 2, "shaft[1].b": 0,
-          "shaft[1].k": 1e9 * rbr ** 2, "shaft[1].d": 0.0}
-    common = dict(c=0.0, w_start=0.0, tau=0.0, lateral=True, k_x=1e8, k_y=1e8)
-    body(sv, 1, J=0.39 * rbs ** 2, m=0.4, **dict(common, tau=tau_sun))
-    body(sv, 2, J=3.00 * rbr ** 2, m=2.35, **common)
-    body(sv, 3, J=6.29 * R ** 2, m=5.43, **dict(common, tau=-tau_sun * (zs + zr) / zs))
-    for n in range(4):
-        body(sv, 4 + n, J=0.61 * rbp ** 2, m=0.66, carrier=3, orbit_angle=n * math.pi / 2, **common)
-        lumped = dict(geometry=2, module=m, pressure_angle=A0, backlash=0.0, contact_model=4,
-                      k_lumped=5e8, c_lumped=0.0)
-        mesh(sv, 1 + n, A=1, B=4 + n, zA=zs, zB=zp, xA=-0.5, xB=0.5, **lumped)
-        mesh(sv, 5 + n, A=4 + n, B=2, zA=zp, zB=zr, xA=0.5, xB=0.5, internal=True, **lumped)
-    return sv
 
 
 def row_of(tr, y, tau):
@@ -480,7 +453,7 @@ def test_coriolis_splits_a_planets_bearing_mode():
 
 
 # ------------------------------------------------------------------------------ 7. scenes
-LATERAL_SCENES = ["lateral-pair", "lateral-floating-sun", "lateral-four-planet"]
+LATERAL_SCENES = ["lateral-pair", "lateral-floating-sun", "lateral-four-planet", "lateral-lin-parker"]
 
 
 @pytest.mark.parametrize("name", LATERAL_SCENES)

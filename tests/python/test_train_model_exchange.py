@@ -23,13 +23,20 @@ from fmpy.fmi2 import (FMU2Model, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 import train_scene_compare as TS
 
 SCENES = TS.scene_names()
+DECLARED_COORDINATES = 16     # 34 states: W_ext, W_loss, and a value and a rate per coordinate
 
 
 @pytest.mark.parametrize("version", ["fmi2", "fmi3"])
 @pytest.mark.parametrize("name", SCENES)
 def test_cvode_passes_the_scene_checks(name, version, train_fmu_path, train_fmu3_path, tmp_path):
     fmu = train_fmu_path if version == "fmi2" else train_fmu3_path
-    rel_tol = TS.load_scene(name).get("start_values", {}).get("rel_tol")
+    sv = TS.load_scene(name).get("start_values", {})
+    coordinates = int(sv["n_bodies"]) + 2 * sum(1 for k, v in sv.items() if k.endswith(".lateral") and v)
+    if coordinates > DECLARED_COORDINATES:
+        pytest.skip(f"{coordinates} coordinates, more than the {DECLARED_COORDINATES} SpurGearTrain "
+                    "declares to a Model Exchange master: refused with advice "
+                    "(test_a_train_beyond_the_declared_states_is_refused_with_advice)")
+    rel_tol = sv.get("rel_tol")
     res = TS.compare_scene(fmu, name, tmp_path, rel_tol=rel_tol, solver="CVode")
     assert res.checks, f"train scene {name} compares nothing"
     if not res.ok:
