@@ -428,7 +428,7 @@ impl<S: System + Clone + 'static> Method<S> {
     pub fn from_solver(solver: i32) -> Method<S> {
         match solver {
             2 => Method::Bdf(bdf::Bdf::new()),
-            3 => Method::Dop853(Box::new(dop853::Dop853::new())),
+            3 => Method::Dop853(Box::default()),
             _ => Method::Dopri5(dopri5::Dopri5::new()),
         }
     }

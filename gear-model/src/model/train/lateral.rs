@@ -240,9 +240,9 @@ impl LateralConfig {
     ) -> Result<(), ModelError> {
         for lb in &self.bodies {
             let mut a = [[0.0; 2]; 2];
-            for d in 0..2 {
+            for (d, row) in a.iter_mut().enumerate() {
                 if lb.k[d] > 0.0 {
-                    a[d][d] += 1.0;
+                    row[d] += 1.0;
                 }
             }
             let holds = |i: usize| i == lb.body || spec.carrier_of(i) == Some(lb.body);
@@ -546,10 +546,10 @@ impl Train {
             }
         }
         for (l, lb) in lat.bodies.iter().enumerate() {
-            for d in 0..2 {
+            for (d, &acc) in a[l].iter().enumerate() {
                 let i = lb.at + 2 * d;
                 dy[i] = y[i + 1];
-                dy[i + 1] = a[l][d];
+                dy[i + 1] = acc;
             }
         }
     }
