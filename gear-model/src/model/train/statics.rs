@@ -16,6 +16,7 @@ use super::kinematics::Coord;
 use super::topology::{Edge, TrainSpec};
 use super::{coord_index, State, Train, TrainLoads};
 use crate::driver::Vector;
+use crate::model::contact::Flank;
 use crate::model::ModelError;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -125,6 +126,39 @@ impl Balance<'_> {
             set(&mut spec, u, v);
         }
         spec
+    }
+
+    /// Each unknown's deflection on its flank: a mesh's penetration there, side (x - edge)
+    /// plus the gain its centres' displacements give along that flank's line of action
+    /// (lateral.md §3); another unknown's value.
+    fn deflections(&self, mid: &[f64], side: &[f64], x: &[f64]) -> Result<Vec<f64>, ModelError> {
+        let own = |k: usize| match self.unknowns[k].1 {
+            Unknown::Mesh(_) => side[k] * (x[k] - edge(mid, side, k)),
+            Unknown::Shaft(_) | Unknown::Lateral(..) => x[k],
+        };
+        let lateral = self
+            .unknowns
+            .iter()
+            .any(|(_, u)| matches!(u, Unknown::Lateral(..)));
+        if !lateral {
+            return Ok((0..x.len()).map(own).collect());
+        }
+        let (train, y) = Train::new(self.with(x), self.loads.tau.clone(), None)?;
+        let bodies = train.bodies(&y);
+        let gain = |m: usize, flank: Flank| {
+            if !train.meshes[m].moving_centres {
+                return 0.0;
+            }
+            let [z, ..] = train.centre_motion(m, &y, &bodies, None);
+            train.meshes[m].centre_gain(flank, z[0], z[1])
+        };
+        Ok((0..x.len())
+            .map(|k| match self.unknowns[k].1 {
+                Unknown::Mesh(m) if side[k] > 0.0 => own(k) + gain(m, Flank::Forward),
+                Unknown::Mesh(m) if side[k] < 0.0 => own(k) + gain(m, Flank::Backward),
+                _ => own(k),
+            })
+            .collect())
     }
 
     /// The second derivatives of the coordinates' edges at the start.
@@ -278,10 +312,11 @@ fn follow_pin_errors(b: &Balance) -> Result<Vec<f64>, ModelError> {
         let bs = at(s);
         let (mid, _) = middle(&bs)?;
         let r = bs.residual(&x)?;
-        let jac = jacobian(&bs, &mid, &side, &x, &r)?;
+        let defl = bs.deflections(&mid, &side, &x)?;
+        let jac = jacobian(&bs, &side, &x, &defl, &r)?;
         // dr/ds by a difference that moves the pins by 1e-6 of the largest deflection.
         let d = (0..n)
-            .map(|k| size(&bs, &mid, &side, &x, k))
+            .map(|k| size(&bs, &side, &defl, k))
             .fold(0.0, f64::max);
         let eps = (1e-6 * d / largest).min(1e-6);
         let drds = (at(s + eps).residual(&x)? - &r) / eps;
@@ -293,17 +328,8 @@ fn follow_pin_errors(b: &Balance) -> Result<Vec<f64>, ModelError> {
             let bt = at(t);
             let (mid, r0) = middle(&bt)?;
             // The prediction, each mesh kept on its flank as in Newton.
-            let xp: Vec<f64> = (0..n)
-                .map(|k| {
-                    let v = x[k] + (t - s) * dxds[k];
-                    let e = edge(&mid, &side, k);
-                    if side[k] != 0.0 && side[k] * (v - e) <= 0.0 {
-                        e + 0.1 * (x[k] - e)
-                    } else {
-                        v
-                    }
-                })
-                .collect();
+            let trial: Vec<f64> = (0..n).map(|k| x[k] + (t - s) * dxds[k]).collect();
+            let xp = keep(&bt, &mid, &side, &trial, &defl)?;
             let failure = match newton(&bt, &mid, &side, &r0, Some(&xp)) {
                 Ok(Ok(xn)) => {
                     (x, s) = (xn, t);
@@ -357,15 +383,7 @@ fn newton(
             })
             .collect(),
     };
-    // Each mesh stays on its flank, where its force law is smooth and monotone (the gap has
-    // no stiffness): a step past the edge goes a tenth of the way there instead.
-    let keep = |k: usize, x: f64, v: f64| {
-        if side[k] != 0.0 && side[k] * (v - edge(k)) <= 0.0 {
-            edge(k) + 0.1 * (x - edge(k))
-        } else {
-            v
-        }
-    };
+    let mut defl = b.deflections(mid, side, &x)?;
     let mut r = b.residual(&x)?;
     // Each edge's residual on its own scale: its size unloaded or at the first guess (an
     // edge that the external loads alone do not accelerate has 0 unloaded).
@@ -384,7 +402,7 @@ fn newton(
         .collect();
     let mut last_moved = f64::INFINITY;
     for _ in 0..MAX_ITER {
-        let jac = jacobian(b, mid, side, &x, &r)?;
+        let jac = jacobian(b, side, &x, &defl, &r)?;
         let step = match jac.clone().lu().solve(&(-&r)) {
             Some(step) => step,
             None => return Err(singular(b, jac)),
@@ -395,9 +413,8 @@ fn newton(
         // Halved only where it would press a contact law beyond its range.
         let mut frac = 1.0;
         let (xn, rn) = loop {
-            let xn: Vec<f64> = (0..n)
-                .map(|k| keep(k, x[k], x[k] + frac * step[k]))
-                .collect();
+            let trial: Vec<f64> = (0..n).map(|k| x[k] + frac * step[k]).collect();
+            let xn = keep(b, mid, side, &trial, &defl)?;
             match b.residual(&xn) {
                 Ok(rn) if rn.iter().all(|v| v.is_finite()) => break (xn, rn),
                 _ if frac > 1e-6 => frac *= 0.5,
@@ -410,12 +427,13 @@ fn newton(
             }
         };
         let moved = (0..n)
-            .map(|k| (xn[k] - x[k]).abs() / size(b, mid, side, &x, k))
+            .map(|k| (xn[k] - x[k]).abs() / size(b, side, &defl, k))
             .fold(0.0, f64::max);
         let still = moved <= STEP_TOL || moved <= STALL_TOL && moved >= 0.5 * last_moved;
         last_moved = moved;
         x = xn;
         r = rn;
+        defl = b.deflections(mid, side, &x)?;
         // Against the accelerations the deflections give the edge (the elastic terms that
         // balance in its equation: a lateral body at rest on its bearing has none of its
         // own, but the meshes' forces on it), or once the steps stand still at rounding, also
@@ -433,7 +451,7 @@ fn newton(
         if still {
             // Pinned: a mesh at the edge of its flank that the balance pushes further.
             let pinned: Vec<usize> = (0..n)
-                .filter(|&k| side[k] != 0.0 && (x[k] - edge(k)).abs() <= 1e-3 * DELTA_GUESS)
+                .filter(|&k| side[k] != 0.0 && defl[k] <= 1e-3 * DELTA_GUESS)
                 .collect();
             if pinned.is_empty() {
                 break;
@@ -460,14 +478,37 @@ fn edge(mid: &[f64], side: &[f64], k: usize) -> f64 {
     }
 }
 
-/// Unknown k's size: a mesh's deflection from its flank's edge; a lateral displacement's, at
-/// least the largest such deflection (the meshes that hold the body move by as much as it
-/// does); a shaft's twist, at least its twist under the largest external torque. Not a
-/// lateral's or a twist's value alone, which starts at 0.
-fn size(b: &Balance, mid: &[f64], side: &[f64], x: &[f64], k: usize) -> f64 {
-    let d = (0..x.len())
+/// Each mesh stays on its flank, where its force law is smooth and monotone (the gap has no
+/// stiffness): a step to `trial` from deflections `defl` that takes a mesh past its flank's
+/// edge goes a tenth of the way there instead. The edge is on the whole penetration: a
+/// lateral body's displacement moves its meshes' too.
+fn keep(
+    b: &Balance,
+    mid: &[f64],
+    side: &[f64],
+    trial: &[f64],
+    defl: &[f64],
+) -> Result<Vec<f64>, ModelError> {
+    let at = b.deflections(mid, side, trial)?;
+    Ok((0..trial.len())
+        .map(|k| {
+            if side[k] != 0.0 && at[k] <= 0.0 {
+                trial[k] + side[k] * (0.1 * defl[k].abs() - at[k])
+            } else {
+                trial[k]
+            }
+        })
+        .collect())
+}
+
+/// Unknown k's size: a mesh's deflection on its flank; a lateral displacement's, at least
+/// the largest such deflection (the meshes that hold the body move by as much as it does); a
+/// shaft's twist, at least its twist under the largest external torque. Not a lateral's or a
+/// twist's value alone, which starts at 0.
+fn size(b: &Balance, side: &[f64], defl: &[f64], k: usize) -> f64 {
+    let d = (0..defl.len())
         .filter(|&j| side[j] != 0.0)
-        .map(|j| (x[j] - edge(mid, side, j)).abs())
+        .map(|j| defl[j].abs())
         .fold(0.0, f64::max);
     let natural = match b.unknowns[k].1 {
         Unknown::Mesh(_) => 0.0,
@@ -478,23 +519,23 @@ fn size(b: &Balance, mid: &[f64], side: &[f64], x: &[f64], k: usize) -> f64 {
         }
         Unknown::Shaft(_) => 0.0,
     };
-    (x[k] - edge(mid, side, k)).abs().max(natural).max(1e-9)
+    defl[k].abs().max(natural).max(1e-9)
 }
 
-/// d(residual)/dx at x (r its residual), by forward differences away from each flank's edge,
-/// into the contact: 1e-6 of each unknown's size, far above the forces' rounding and far
-/// below the laws' curvature.
+/// d(residual)/dx at x (r its residual, defl its deflections), by forward differences away
+/// from each flank's edge, into the contact: 1e-6 of each unknown's size, far above the
+/// forces' rounding and far below the laws' curvature.
 fn jacobian(
     b: &Balance,
-    mid: &[f64],
     side: &[f64],
     x: &[f64],
+    defl: &[f64],
     r: &DVector<f64>,
 ) -> Result<DMatrix<f64>, ModelError> {
     let n = x.len();
     let mut jac = DMatrix::zeros(n, n);
     for k in 0..n {
-        let h = 1e-6 * size(b, mid, side, x, k);
+        let h = 1e-6 * size(b, side, defl, k);
         let mut xh = x.to_vec();
         xh[k] += if side[k] < 0.0 { -h } else { h };
         let rh = b.residual(&xh)?;
