@@ -10,7 +10,8 @@
 //! displacements; the meshes that close loops follow from them. The equations are the train's own right-hand side, so whatever the
 //! model carries (the pairs in contact, their positions, tooth structure, friction) is in the
 //! balance. Newton's method on them, with a Jacobian by differences: a handful of train
-//! builds per iteration, once, at initialization.
+//! builds per iteration, once, at initialization. Where planets' pin errors defeat Newton from
+//! its guess, the balance is followed from the train without them (`follow_pin_errors`).
 
 use super::kinematics::Coord;
 use super::topology::{Edge, TrainSpec};
