@@ -330,8 +330,9 @@ fn follow_pin_errors(b: &Balance) -> Result<Vec<f64>, ModelError> {
             let (mid, r0) = middle(&bt)?;
             // The prediction, each mesh kept on its flank as in Newton.
             let trial: Vec<f64> = (0..n).map(|k| x[k] + (t - s) * dxds[k]).collect();
-            let xp = keep(&bt, &mid, &side, &trial, &defl)?;
-            let failure = match newton(&bt, &mid, &side, &r0, Some(&xp)) {
+            let corrected = keep(&bt, &mid, &side, &trial, &defl)
+                .and_then(|xp| newton(&bt, &mid, &side, &r0, Some(&xp)));
+            let failure = match corrected {
                 Ok(Ok(xn)) => {
                     (x, s) = (xn, t);
                     ds *= 2.0;
@@ -415,9 +416,11 @@ fn newton(
         let mut frac = 1.0;
         let (xn, rn) = loop {
             let trial: Vec<f64> = (0..n).map(|k| x[k] + frac * step[k]).collect();
-            let xn = keep(b, mid, side, &trial, &defl)?;
-            match b.residual(&xn) {
-                Ok(rn) if rn.iter().all(|v| v.is_finite()) => break (xn, rn),
+            // A step that the train refuses (a loop that no longer assembles) is halved too.
+            let at =
+                keep(b, mid, side, &trial, &defl).and_then(|xn| b.residual(&xn).map(|rn| (xn, rn)));
+            match at {
+                Ok((xn, rn)) if rn.iter().all(|v| v.is_finite()) => break (xn, rn),
                 _ if frac > 1e-6 => frac *= 0.5,
                 Ok(_) => {
                     return Err(ModelError::new(
