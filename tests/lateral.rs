@@ -520,6 +520,42 @@ fn a_floating_sun_shares_the_load_equally() {
     assert!((f[0] - mean).abs() > 0.1 * mean, "held: {f:?}");
 }
 
+/// The static start balances a floating sun whatever one planet's tangential pin error. The
+/// error moves the sun's loop-closing meshes by as much as their deflections (~2 um): Newton
+/// from its guess found the sun on one mesh (Johnson at 5 um: singular) or, at -5 um, where
+/// the balance has a sun mesh's dte negative and only the sun's displacement loads it, kept
+/// that dte on its flank and found none (statics.rs now keeps the whole penetration on its
+/// flank and follows the balance from the set without pin errors). The balance is the
+/// floating sun's: equal shares within 3 |e| / R, as in `a_floating_sun_shares_the_load_equally`,
+/// with lumped meshes and with Johnson's law (the shares follow from the sun's statics alone).
+#[test]
+fn the_static_start_balances_a_floating_sun_with_pin_errors() {
+    for (law, is_lumped) in [("lumped", true), ("Johnson", false)] {
+        let pair_of = |p| if is_lumped { lumped(p) } else { p };
+        for e in [2e-6, 5e-6, 10e-6, -5e-6] {
+            let mut sun = body(2e-3);
+            sun.lateral = bearing(1.0, [0.0, 0.0], [0.0; 2]);
+            let spec = three_planets(sun, body(0.05), body(1e-4), e, pair_of);
+            let tau = vec![50.0, -50.0 * (1.0 + 57.0 / 21.0), 0.0, 0.0, 0.0];
+            let sim = TrainSimulation::new(spec.clone(), tau.clone(), None, 1, 0.0, 1e-10).unwrap();
+            let solved = static_start(spec, &sim.train().loads)
+                .unwrap_or_else(|err| panic!("{law}, e = {e}: {err}"));
+            let sim = TrainSimulation::new(solved, tau, None, 1, 0.0, 1e-10).unwrap();
+            let y = sim.state();
+            let f = [0, 1, 2].map(|m| sim.train().mesh_readout(m, &y).unwrap().flank_force[0]);
+            let mean = (f[0] + f[1] + f[2]) / 3.0;
+            assert!(mean > 100.0, "{law}, e = {e}: {f:?}");
+            let turn = e.abs() / sim.train().cfg.orbit_radius[2];
+            for x in f {
+                assert!(
+                    (x - mean).abs() <= 3.0 * turn * mean,
+                    "{law}, e = {e}: {f:?}"
+                );
+            }
+        }
+    }
+}
+
 /// The modes that set an explicit method's steps where the flanks in contact set them
 /// (gear-model/src/model/train/modal.rs), in closed form: the pinion case on an isotropic
 /// bearing k_b, undamped, meshing with a wheel whose speed is given. In mass-normalized
