@@ -490,7 +490,7 @@ fn the_static_start_finds_the_bearings_deflection() {
 /// balance shifts the shares by that order; 3 e / R bounds it (the static start's own accuracy,
 /// 1e-10 of the elastic terms, is far below). The rigid sun's unbalance is of order
 /// k_mesh e / F = 4e8 x 1e-6 / 850, far above 10 % (a larger error unloads two planets
-/// entirely, and their rotation in the backlash has no static balance).
+/// entirely, and their rotation in the backlash has no unique static balance).
 #[test]
 fn a_floating_sun_shares_the_load_equally() {
     let shares = |floating: bool| {
