@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Writes scenes/train/lateral-lin-parker.toml and its input file: Lin & Parker's (1999) set
 (lateral.md section 7, every member lateral, lumped meshes) started at its static balance under
-lateral_ref.static_start, then a step of the sun's torque.
+lateral_ref.static_start, a lateral blow on the sun, then a step of both torques; and the scene's
+gearbox file, scenes/train/gearbox/lateral-lin-parker.toml.
 
     .venv/bin/python tests/reference_model/make_lateral_scenes.py                # the scene
     .venv/bin/python tests/reference_model/regenerate_train.py lateral-lin-parker  # its trace
